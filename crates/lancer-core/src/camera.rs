@@ -1,0 +1,92 @@
+//! The pinhole camera of SCENE-FORMAT.md: `from`, `to`, `up`, vertical field of view.
+
+use glam::Vec3;
+
+/// A pinhole camera. Build it with [`Camera::look_at`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub origin: Vec3,
+    /// Unit viewing direction.
+    pub forward: Vec3,
+    /// Unit vector to the image's right: `normalize(forward × up)`.
+    pub right: Vec3,
+    /// Unit vector to the image's top: `right × forward`.
+    pub up: Vec3,
+    /// `tan(fov / 2)` of the vertical field of view.
+    pub tan_half_fov: f32,
+}
+
+/// Why a camera cannot be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CameraError {
+    /// `from` and `to` are the same point.
+    NoDirection,
+    /// `up` is zero or parallel to the viewing direction.
+    UpParallel,
+    /// The field of view is not strictly between 0 and 180 degrees.
+    BadFov,
+}
+
+impl std::fmt::Display for CameraError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            CameraError::NoDirection => "`from` and `to` must be different points",
+            CameraError::UpParallel => "`up` must be non-zero and not parallel to the viewing direction",
+            CameraError::BadFov => "`fov` must be strictly between 0 and 180 degrees",
+        })
+    }
+}
+
+impl Camera {
+    /// The camera at `from` looking at `to`, with `up` and a vertical field of view in degrees.
+    pub fn look_at(from: Vec3, to: Vec3, up: Vec3, fov_deg: f32) -> Result<Camera, CameraError> {
+        let forward = (to - from).try_normalize().ok_or(CameraError::NoDirection)?;
+        let right = forward.cross(up).try_normalize().ok_or(CameraError::UpParallel)?;
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
+            return Err(CameraError::BadFov);
+        }
+        Ok(Camera {
+            origin: from,
+            forward,
+            right,
+            up: right.cross(forward),
+            tan_half_fov: (fov_deg.to_radians() * 0.5).tan(),
+        })
+    }
+
+    /// The unit direction through image point `(px, py)` in pixels (`(0, 0)` is the top-left
+    /// corner of the image; a pixel's centre is at `i + 0.5`).
+    #[inline]
+    pub fn direction(&self, px: f32, py: f32, width: u32, height: u32) -> Vec3 {
+        let (w, h) = (width as f32, height as f32);
+        let x = (2.0 * px / w - 1.0) * self.tan_half_fov * w / h;
+        let y = (1.0 - 2.0 * py / h) * self.tan_half_fov;
+        // forward is unit and orthogonal to right/up, so the sum is never zero.
+        (self.forward + x * self.right + y * self.up).normalize()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_pixel_looks_forward_and_row_zero_is_top() {
+        let cam = Camera::look_at(Vec3::new(0.0, 0.0, -5.0), Vec3::ZERO, Vec3::Y, 40.0).unwrap();
+        let d = cam.direction(50.0, 50.0, 100, 100);
+        assert!((d - Vec3::Z).length() < 1e-6);
+        assert!(cam.direction(50.0, 0.5, 100, 100).y > 0.0);
+        // Right-handed: looking down +z with +y up, the image's right is -x.
+        assert!(cam.direction(99.5, 50.0, 100, 100).x < 0.0);
+        let top = cam.direction(50.0, 0.0, 100, 100);
+        assert!((top.y.atan2(top.z).to_degrees() - 20.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn degenerate_cameras_are_rejected() {
+        assert_eq!(Camera::look_at(Vec3::ONE, Vec3::ONE, Vec3::Y, 40.0), Err(CameraError::NoDirection));
+        assert_eq!(Camera::look_at(Vec3::ZERO, Vec3::Y, Vec3::Y, 40.0), Err(CameraError::UpParallel));
+        assert_eq!(Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 180.0), Err(CameraError::BadFov));
+    }
+}

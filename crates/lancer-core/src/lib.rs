@@ -1,0 +1,21 @@
+//! Lancer's core: optics helpers, camera, materials and lights, the scene's ECS components, the
+//! SoA ray/hit chunks of the per-tile ray world, and the per-term image buffers (the frame).
+//!
+//! This crate knows nothing of shape internals, terms or files: it is the vocabulary the other
+//! crates share.
+
+pub mod camera;
+pub mod frame;
+pub mod material;
+pub mod optics;
+pub mod rays;
+pub mod scene;
+
+pub use camera::Camera;
+pub use frame::{Frame, Layer};
+pub use glam::Vec3;
+pub use material::{Material, PointLight};
+pub use scene::{ImageSettings, MaterialOf, Meta, Scene, Transform};
+
+/// A linear RGB colour (no gamma), stored as a `Vec3`.
+pub type Rgb = Vec3;

@@ -1,0 +1,48 @@
+//! The handout's material (six numbers and a colour) and point lights.
+
+use glam::Vec3;
+
+/// A material of the handout's model. Every factor is in [0, 1] except `n`, in [1, 2.5].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    /// `Col_Ω`, linear RGB.
+    pub color: Vec3,
+    /// Ambient fraction.
+    pub ambi: f32,
+    /// Diffuse (Lambert) weight.
+    pub diff: f32,
+    /// Specular weight: highlight and mirror.
+    pub spec: f32,
+    /// Glossiness: the highlight exponent is `1 / (1 - shine)`.
+    pub shine: f32,
+    /// Transparency weight (0: no refraction work at all).
+    pub alpha: f32,
+    /// Refractive index.
+    pub n: f32,
+}
+
+impl Default for Material {
+    /// A plain white matte material: what an object without a material gets.
+    fn default() -> Self {
+        Material { color: Vec3::ONE, ambi: 0.1, diff: 0.9, spec: 0.0, shine: 0.0, alpha: 0.0, n: 1.0 }
+    }
+}
+
+/// A point light (no distance fall-off, as in the handout).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointLight {
+    /// Position.
+    pub at: Vec3,
+    /// `Col_L` before intensity, linear RGB.
+    pub color: Vec3,
+    /// Scales `color`.
+    pub intensity: f32,
+}
+
+impl PointLight {
+    /// The light's colour times its intensity: `Col_L` in the model's formulas.
+    #[inline]
+    pub fn radiance(&self) -> Vec3 {
+        self.color * self.intensity
+    }
+}

@@ -1,0 +1,119 @@
+//! The handout's two direction formulas: mirror reflection and `VctTransmis` (Snell refraction).
+
+use glam::Vec3;
+
+/// Mirror reflection of the direction `u` about the unit normal `n`: `u - 2 (n·u) n`.
+///
+/// The side `n` faces does not matter: the formula is symmetric in the sign of `n`.
+#[inline]
+pub fn reflect(u: Vec3, n: Vec3) -> Vec3 {
+    u - 2.0 * n.dot(u) * n
+}
+
+/// The handout's `VctTransmis(u, N', delta)` with `delta = n1 / n2`.
+///
+/// `n_t` must be the unit normal on the **transmission side** (`n_t · u >= 0`); callers flip the
+/// outward normal at an entry point (see MODEL.md, "VctTransmis and its sign trap"). Returns `None`
+/// on total internal reflection (`1 - delta² (1 - ps²) < 0`), never a NaN.
+#[inline]
+pub fn vct_transmis(u: Vec3, n_t: Vec3, delta: f32) -> Option<Vec3> {
+    debug_assert!(n_t.dot(u) >= -1e-4, "normal must be on the transmission side");
+    let ps = n_t.dot(u).clamp(-1.0, 1.0);
+    let k = 1.0 - delta * delta * (1.0 - ps * ps);
+    if k < 0.0 {
+        return None;
+    }
+    let t = (k.sqrt() - delta * ps) * n_t + delta * u;
+    // The formula yields a unit vector for unit inputs; renormalise only to shed rounding.
+    Some(t.try_normalize().unwrap_or(u))
+}
+
+/// The critical angle (radians) for leaving a medium of index `n_inside` into one of `n_outside`.
+/// `None` when there is none (`n_inside <= n_outside`).
+pub fn critical_angle(n_inside: f32, n_outside: f32) -> Option<f32> {
+    (n_inside > n_outside).then(|| (n_outside / n_inside).asin())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: Vec3, b: Vec3) -> bool {
+        (a - b).length() < 1e-5
+    }
+
+    #[test]
+    fn reflection_flips_the_normal_component_only() {
+        let n = Vec3::Y;
+        let u = Vec3::new(1.0, -1.0, 0.0).normalize();
+        assert!(close(reflect(u, n), Vec3::new(1.0, 1.0, 0.0).normalize()));
+        // Either orientation of the normal gives the same mirror direction.
+        assert!(close(reflect(u, -n), reflect(u, n)));
+        // Normal incidence comes straight back.
+        assert!(close(reflect(-Vec3::Y, n), Vec3::Y));
+    }
+
+    #[test]
+    fn transmis_at_normal_incidence_goes_straight_through() {
+        let u = -Vec3::Y;
+        for delta in [1.0 / 1.5, 1.0, 1.5, 1.0 / 2.417] {
+            // Entering from above: the transmission side is -N.
+            let t = vct_transmis(u, -Vec3::Y, delta).unwrap();
+            assert!(close(t, u), "delta {delta}: {t}");
+        }
+    }
+
+    #[test]
+    fn transmis_obeys_snell() {
+        let theta = 40f32.to_radians();
+        let u = Vec3::new(theta.sin(), -theta.cos(), 0.0);
+        let (n1, n2) = (1.0, 1.52);
+        let t = vct_transmis(u, -Vec3::Y, n1 / n2).unwrap();
+        let sin_t = t.x.hypot(t.z);
+        assert!((n1 * theta.sin() - n2 * sin_t).abs() < 1e-5);
+        assert!(t.y < 0.0, "the ray keeps going down into the medium");
+        assert!((t.length() - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn ray_through_a_slab_leaves_parallel_to_itself() {
+        let n = 1.7;
+        for deg in [0.0f32, 10.0, 35.0, 60.0, 85.0] {
+            let a = deg.to_radians();
+            let u = Vec3::new(a.sin(), -a.cos(), 0.2 * a.sin()).normalize();
+            // Top face (outward normal +y), entering: transmission side is -y.
+            let inside = vct_transmis(u, -Vec3::Y, 1.0 / n).unwrap();
+            // Bottom face (outward normal -y), leaving: the outward normal is on the transmission side.
+            let out = vct_transmis(inside, -Vec3::Y, n).unwrap();
+            assert!(close(out, u), "{deg}°: {u} -> {out}");
+        }
+    }
+
+    #[test]
+    fn wrong_side_normal_is_what_the_sign_trap_looks_like() {
+        // Using the outward normal at entry (the handout's trap) sends the ray back up: a
+        // mirror-like direction. This documents why callers must flip it.
+        let u = Vec3::new(0.6, -0.8, 0.0);
+        let ps = Vec3::Y.dot(u);
+        let delta = 1.0 / 1.5f32;
+        let k = 1.0 - delta * delta * (1.0 - ps * ps);
+        let trap = (k.sqrt() - delta * ps) * Vec3::Y + delta * u;
+        assert!(trap.y > 0.0);
+    }
+
+    #[test]
+    fn critical_angle_and_beyond_is_total_internal_reflection() {
+        let n = 1.5f32;
+        let crit = critical_angle(n, 1.0).unwrap();
+        assert!((crit - (1.0 / n).asin()).abs() < 1e-7);
+        // Leaving through a face with outward normal +y (transmission side), from inside.
+        let dir = |a: f32| Vec3::new(a.sin(), a.cos(), 0.0);
+        let below = vct_transmis(dir(crit - 1e-3), Vec3::Y, n).unwrap();
+        assert!(below.y > 0.0 && below.y < 0.1, "near grazing exit: {below}");
+        assert!(!below.is_nan());
+        for a in [crit + 1e-3, crit + 0.2, 1.5] {
+            assert_eq!(vct_transmis(dir(a), Vec3::Y, n), None, "angle {a}");
+        }
+        assert_eq!(critical_angle(1.0, 1.5), None);
+    }
+}

@@ -1,0 +1,127 @@
+//! Components of the per-tile ray world: each entity is a *chunk* of rays stored as SoA columns
+//! (DESIGN.md: an entity per ray costs more in bookkeeping than tracing it).
+
+use glam::Vec3;
+
+/// Most lanes one chunk holds.
+pub const CHUNK_LANES: usize = 256;
+
+/// `Rays::credit` of a primary ray: each term credits its own image.
+pub const CREDIT_OWN: u16 = u16::MAX;
+
+/// `Hits::object` of a lane whose ray hit nothing.
+pub const NO_HIT: u32 = u32::MAX;
+
+/// The rays of a chunk, one entry per lane.
+#[derive(Clone, Debug, Default)]
+pub struct Rays {
+    /// Ray origins.
+    pub origin: Vec<Vec3>,
+    /// Unit directions.
+    pub dir: Vec<Vec3>,
+    /// Throughput: what this ray's colour is multiplied by before it reaches its pixel.
+    pub weight: Vec<Vec3>,
+    /// Pixel index inside the tile.
+    pub pixel: Vec<u32>,
+    /// Recursion depth (0 for camera rays).
+    pub depth: Vec<u8>,
+    /// Which image (layer index) receives this ray's contributions; [`CREDIT_OWN`] for camera rays.
+    pub credit: Vec<u16>,
+}
+
+impl Rays {
+    /// Number of lanes.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.origin.len()
+    }
+
+    /// Whether the chunk has no lanes.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.origin.is_empty()
+    }
+
+    /// An empty chunk with room for `n` lanes.
+    pub fn with_capacity(n: usize) -> Rays {
+        Rays {
+            origin: Vec::with_capacity(n),
+            dir: Vec::with_capacity(n),
+            weight: Vec::with_capacity(n),
+            pixel: Vec::with_capacity(n),
+            depth: Vec::with_capacity(n),
+            credit: Vec::with_capacity(n),
+        }
+    }
+
+    /// Appends one lane.
+    #[inline]
+    pub fn push(&mut self, origin: Vec3, dir: Vec3, weight: Vec3, pixel: u32, depth: u8, credit: u16) {
+        self.origin.push(origin);
+        self.dir.push(dir);
+        self.weight.push(weight);
+        self.pixel.push(pixel);
+        self.depth.push(depth);
+        self.credit.push(credit);
+    }
+}
+
+/// Closest hits of a chunk's rays, one entry per lane (written by the trace system).
+#[derive(Clone, Debug, Default)]
+pub struct Hits {
+    /// Distance along the ray.
+    pub t: Vec<f32>,
+    /// Hit point in world space.
+    pub point: Vec<Vec3>,
+    /// Unit outward geometric normal (the side the shape calls outside).
+    pub normal: Vec<Vec3>,
+    /// Whether the ray arrived from outside (`normal · dir < 0`).
+    pub front: Vec<bool>,
+    /// Object index in the prepared scene, or [`NO_HIT`].
+    pub object: Vec<u32>,
+}
+
+impl Hits {
+    /// Hit columns for `n` lanes, all misses.
+    pub fn misses(n: usize) -> Hits {
+        Hits {
+            t: vec![f32::INFINITY; n],
+            point: vec![Vec3::ZERO; n],
+            normal: vec![Vec3::ZERO; n],
+            front: vec![true; n],
+            object: vec![NO_HIT; n],
+        }
+    }
+
+    /// The normal facing the incoming ray (the outward normal flipped on a back-face hit).
+    #[inline]
+    pub fn facing_normal(&self, lane: usize) -> Vec3 {
+        if self.front[lane] { self.normal[lane] } else { -self.normal[lane] }
+    }
+}
+
+/// Light arriving at each lane's hit, `lights` entries per lane (written by the visibility system).
+#[derive(Clone, Debug, Default)]
+pub struct LightSamples {
+    /// Number of lights (entries per lane).
+    pub lights: usize,
+    /// Unit direction from the hit towards each light (`w`).
+    pub w: Vec<Vec3>,
+    /// Light colour reaching the hit: `Col_L` times the shadow model's transmittance; zero when the
+    /// light is hidden, behind the surface (`N·w <= 0`), or the lane has no hit.
+    pub incoming: Vec<Vec3>,
+}
+
+impl LightSamples {
+    /// Zeroed columns for `lanes` lanes and `lights` lights.
+    pub fn dark(lanes: usize, lights: usize) -> LightSamples {
+        LightSamples { lights, w: vec![Vec3::ZERO; lanes * lights], incoming: vec![Vec3::ZERO; lanes * lights] }
+    }
+
+    /// The `(w, incoming)` pairs of one lane.
+    #[inline]
+    pub fn lane(&self, lane: usize) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
+        let r = lane * self.lights..(lane + 1) * self.lights;
+        self.w[r.clone()].iter().copied().zip(self.incoming[r].iter().copied())
+    }
+}

@@ -1,0 +1,15 @@
+//! Intersection: canonical shapes in object space, objects placed by affine transforms, and the
+//! flattened scene geometry with its BVH. Answers "first hit" and "where does a ray that starts
+//! inside this object leave" (the refraction exit point).
+//!
+//! This crate knows nothing of hecs, terms or files.
+
+mod aabb;
+mod bvh;
+mod geometry;
+mod shape;
+
+pub use aabb::Aabb;
+pub use bvh::Bvh;
+pub use geometry::{Geometry, Hit, Object, offset_origin};
+pub use shape::Shape;
