@@ -1,1 +1,22 @@
-//! placeholder
+//! Shading: the illumination terms as registered systems over the per-tile ray world, the shadow
+//! models, the registry that finds both by name, and the render loop that runs generations of
+//! ray chunks through them.
+//!
+//! This crate knows nothing of TOML files or the command line: a model arrives as names and typed
+//! parameters ([`Params`]), and a render returns a [`lancer_core::Frame`].
+
+mod params;
+mod prepare;
+mod registry;
+mod render;
+mod shadow;
+pub mod shadows;
+mod term;
+pub mod terms;
+
+pub use params::{ParamError, ParamSpec, ParamValue, Params};
+pub use prepare::{Prepared, PrepareError, prepare};
+pub use registry::{ModelError, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec};
+pub use render::{RenderOptions, render, render_prepared};
+pub use shadow::{ShadowContext, ShadowModel};
+pub use term::{Chunk, ShadeContext, Term, TermOutput};

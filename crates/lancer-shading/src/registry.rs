@@ -1,0 +1,328 @@
+//! The registry: terms and shadow models found by name, and the pipeline a model builds from it.
+
+use crate::{ParamError, ParamSpec, Params, ShadowModel, Term};
+
+/// How to build one term variant. A user crate fills one in and calls
+/// [`Registry::register_term`].
+#[derive(Clone, Copy)]
+pub struct TermSpec {
+    /// The term's name: its image's name and its key in `terms = [...]`.
+    pub name: &'static str,
+    /// The variant's name; the first variant registered under a name is its default.
+    pub variant: &'static str,
+    /// One line for `lancer terms`.
+    pub summary: &'static str,
+    /// The parameters it reads, for `lancer terms` and "did you mean" hints.
+    pub params: &'static [ParamSpec],
+    /// Builds the term from its parameters (reading each it knows).
+    pub build: fn(&mut Params) -> Result<Box<dyn Term>, ParamError>,
+}
+
+/// How to build one shadow model.
+#[derive(Clone, Copy)]
+pub struct ShadowSpec {
+    /// The name used in `shadows = "..."`.
+    pub name: &'static str,
+    /// One line for `lancer terms`.
+    pub summary: &'static str,
+    /// The parameters it reads.
+    pub params: &'static [ParamSpec],
+    /// Builds the model from its parameters.
+    pub build: fn(&mut Params) -> Result<Box<dyn ShadowModel>, ParamError>,
+}
+
+/// A registration that clashes with one already there.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum RegistryError {
+    /// The same term name and variant twice.
+    #[error("term `{name}` variant `{variant}` is already registered")]
+    DuplicateTerm {
+        /// Term name.
+        name: String,
+        /// Variant name.
+        variant: String,
+    },
+    /// The same shadow model name twice.
+    #[error("shadow model `{0}` is already registered")]
+    DuplicateShadow(String),
+}
+
+/// A model that names something the registry does not have, or gives it bad parameters.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ModelError {
+    /// No term of that name.
+    #[error("unknown term `{name}`{}; known terms: {}", hint(nearest), known.join(", "))]
+    UnknownTerm {
+        /// What the model said.
+        name: String,
+        /// The closest known name, if any is close.
+        nearest: Option<String>,
+        /// Every known term.
+        known: Vec<String>,
+    },
+    /// The term exists but not that variant.
+    #[error("term `{term}` has no variant `{variant}`{}; its variants: {}", hint(nearest), known.join(", "))]
+    UnknownVariant {
+        /// The term.
+        term: String,
+        /// What the model said.
+        variant: String,
+        /// The closest variant name.
+        nearest: Option<String>,
+        /// The term's variants.
+        known: Vec<String>,
+    },
+    /// No shadow model of that name.
+    #[error("unknown shadow model `{name}`{}; known shadow models: {}", hint(nearest), known.join(", "))]
+    UnknownShadow {
+        /// What the model said.
+        name: String,
+        /// The closest known name.
+        nearest: Option<String>,
+        /// Every known shadow model.
+        known: Vec<String>,
+    },
+    /// A parameter the term or shadow model does not read.
+    #[error("`{owner}` has no parameter `{param}`{}; its parameters: {}", hint(nearest), if known.is_empty() { "none".to_owned() } else { known.join(", ") })]
+    UnknownParam {
+        /// The term or shadow model.
+        owner: String,
+        /// The parameter given.
+        param: String,
+        /// The closest parameter name.
+        nearest: Option<String>,
+        /// The parameters it has.
+        known: Vec<String>,
+    },
+    /// A parameter of the wrong type or range.
+    #[error("`{owner}`: {error}")]
+    BadParam {
+        /// The term or shadow model.
+        owner: String,
+        /// What was wrong.
+        error: ParamError,
+    },
+    /// The same term twice: their images would share a name.
+    #[error("term `{0}` appears twice in the model; each term has one image, so list it once")]
+    DuplicateTerm(String),
+}
+
+fn hint(nearest: &Option<String>) -> String {
+    nearest.as_ref().map(|n| format!(" (did you mean `{n}`?)")).unwrap_or_default()
+}
+
+/// The known name closest to `name`, if it is close enough to be a likely typo.
+pub fn nearest<'a>(name: &str, known: impl IntoIterator<Item = &'a str>) -> Option<String> {
+    known
+        .into_iter()
+        .map(|k| (strsim::damerau_levenshtein(name, k), k))
+        .filter(|&(d, k)| d <= 2.max(k.len() / 3) && d < k.len().max(name.len()))
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, k)| k.to_owned())
+}
+
+/// A built term with the names it was built from.
+pub struct NamedTerm {
+    /// The term's name (its image's name).
+    pub name: String,
+    /// The variant used.
+    pub variant: String,
+    /// The system.
+    pub term: Box<dyn Term>,
+}
+
+/// A built shadow model with its name.
+pub struct NamedShadow {
+    /// Its name.
+    pub name: String,
+    /// The model.
+    pub model: Box<dyn ShadowModel>,
+}
+
+/// A lighting model ready to render: the ordered term systems, the shadow model, the depth limit.
+pub struct Pipeline {
+    /// Recursion limit for child rays (the handout's `rec`).
+    pub max_depth: u8,
+    /// How light visibility is computed.
+    pub shadows: NamedShadow,
+    /// The terms, in summation order.
+    pub terms: Vec<NamedTerm>,
+}
+
+impl Pipeline {
+    /// Checks that no term appears twice.
+    pub fn new(max_depth: u8, shadows: NamedShadow, terms: Vec<NamedTerm>) -> Result<Pipeline, ModelError> {
+        for (i, t) in terms.iter().enumerate() {
+            if terms[..i].iter().any(|u| u.name == t.name) {
+                return Err(ModelError::DuplicateTerm(t.name.clone()));
+            }
+        }
+        Ok(Pipeline { max_depth, shadows, terms })
+    }
+}
+
+/// Every term and shadow model that models can name.
+#[derive(Clone)]
+pub struct Registry {
+    terms: Vec<TermSpec>,
+    shadows: Vec<ShadowSpec>,
+}
+
+impl Default for Registry {
+    fn default() -> Self {
+        Registry::with_builtins()
+    }
+}
+
+fn unused_param(owner: &str, params: &Params, specs: &[ParamSpec]) -> Result<(), ModelError> {
+    match params.unused().next() {
+        None => Ok(()),
+        Some(p) => Err(ModelError::UnknownParam {
+            owner: owner.to_owned(),
+            param: p.to_owned(),
+            nearest: nearest(p, specs.iter().map(|s| s.name)),
+            known: specs.iter().map(|s| s.name.to_owned()).collect(),
+        }),
+    }
+}
+
+impl Registry {
+    /// The built-in terms and shadow models.
+    pub fn with_builtins() -> Registry {
+        Registry { terms: crate::terms::BUILTIN.to_vec(), shadows: crate::shadows::BUILTIN.to_vec() }
+    }
+
+    /// Adds a term variant. Errors if that name and variant are already there.
+    pub fn register_term(&mut self, spec: TermSpec) -> Result<(), RegistryError> {
+        if self.terms.iter().any(|t| t.name == spec.name && t.variant == spec.variant) {
+            return Err(RegistryError::DuplicateTerm { name: spec.name.into(), variant: spec.variant.into() });
+        }
+        self.terms.push(spec);
+        Ok(())
+    }
+
+    /// Adds a shadow model. Errors if the name is already there.
+    pub fn register_shadow(&mut self, spec: ShadowSpec) -> Result<(), RegistryError> {
+        if self.shadows.iter().any(|s| s.name == spec.name) {
+            return Err(RegistryError::DuplicateShadow(spec.name.into()));
+        }
+        self.shadows.push(spec);
+        Ok(())
+    }
+
+    /// Every registered term variant, built-ins first, in registration order.
+    pub fn terms(&self) -> &[TermSpec] {
+        &self.terms
+    }
+
+    /// Every registered shadow model.
+    pub fn shadows(&self) -> &[ShadowSpec] {
+        &self.shadows
+    }
+
+    /// The distinct term names, in registration order.
+    pub fn term_names(&self) -> Vec<&'static str> {
+        let mut names: Vec<&'static str> = Vec::new();
+        for t in &self.terms {
+            if !names.contains(&t.name) {
+                names.push(t.name);
+            }
+        }
+        names
+    }
+
+    /// Builds term `name` (its default variant unless `variant` is given) from `params`.
+    pub fn build_term(&self, name: &str, variant: Option<&str>, mut params: Params) -> Result<NamedTerm, ModelError> {
+        let variants: Vec<&TermSpec> = self.terms.iter().filter(|t| t.name == name).collect();
+        let Some(&first) = variants.first() else {
+            let known = self.term_names();
+            return Err(ModelError::UnknownTerm {
+                name: name.to_owned(),
+                nearest: nearest(name, known.iter().copied()),
+                known: known.iter().map(|s| s.to_string()).collect(),
+            });
+        };
+        let spec = match variant {
+            None => first,
+            Some(v) => *variants.iter().find(|t| t.variant == v).ok_or_else(|| ModelError::UnknownVariant {
+                term: name.to_owned(),
+                variant: v.to_owned(),
+                nearest: nearest(v, variants.iter().map(|t| t.variant)),
+                known: variants.iter().map(|t| t.variant.to_owned()).collect(),
+            })?,
+        };
+        let term = (spec.build)(&mut params).map_err(|error| ModelError::BadParam { owner: name.to_owned(), error })?;
+        unused_param(name, &params, spec.params)?;
+        Ok(NamedTerm { name: name.to_owned(), variant: spec.variant.to_owned(), term })
+    }
+
+    /// Builds shadow model `name` from `params`.
+    pub fn build_shadow(&self, name: &str, mut params: Params) -> Result<NamedShadow, ModelError> {
+        let Some(spec) = self.shadows.iter().find(|s| s.name == name) else {
+            return Err(ModelError::UnknownShadow {
+                name: name.to_owned(),
+                nearest: nearest(name, self.shadows.iter().map(|s| s.name)),
+                known: self.shadows.iter().map(|s| s.name.to_owned()).collect(),
+            });
+        };
+        let model = (spec.build)(&mut params).map_err(|error| ModelError::BadParam { owner: name.to_owned(), error })?;
+        unused_param(name, &params, spec.params)?;
+        Ok(NamedShadow { name: name.to_owned(), model })
+    }
+
+    /// The handout's full model: every built-in term in order, hard shadows, depth 5.
+    pub fn default_pipeline(&self) -> Pipeline {
+        let terms = crate::terms::BUILTIN
+            .iter()
+            .map(|t| self.build_term(t.name, None, Params::default()).expect("built-in terms build without parameters"))
+            .collect();
+        let shadows = self.build_shadow(crate::shadows::DEFAULT, Params::default()).expect("the default shadow model exists");
+        Pipeline::new(5, shadows, terms).expect("built-in term names are distinct")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ParamValue;
+
+    #[test]
+    fn unknown_names_suggest_the_nearest() {
+        let r = Registry::with_builtins();
+        let e = r.build_term("difuse", None, Params::default()).err().unwrap();
+        assert_eq!(
+            e.to_string(),
+            "unknown term `difuse` (did you mean `diffuse`?); known terms: ambient, diffuse, specular, mirror, refraction"
+        );
+        let e = r.build_term("zzz", None, Params::default()).err().unwrap();
+        assert!(!e.to_string().contains("did you mean"));
+        let e = r.build_shadow("transmisive", Params::default()).err().unwrap();
+        assert!(e.to_string().contains("did you mean `transmissive`"), "{e}");
+        let e = r.build_term("specular", Some("phog"), Params::default()).err().unwrap();
+        assert!(e.to_string().contains("did you mean `phong`"), "{e}");
+    }
+
+    #[test]
+    fn unknown_and_bad_parameters_are_errors() {
+        let r = Registry::with_builtins();
+        let p = Params::new([("tnt".to_owned(), ParamValue::Bool(true))]);
+        let e = r.build_shadow("transmissive", p).err().unwrap();
+        assert_eq!(e.to_string(), "`transmissive` has no parameter `tnt` (did you mean `tint`?); its parameters: tint");
+        let p = Params::new([("tint".to_owned(), ParamValue::Number(1.0))]);
+        let e = r.build_shadow("transmissive", p).err().unwrap();
+        assert_eq!(e.to_string(), "`transmissive`: parameter `tint`: expected a boolean, found a number");
+        let p = Params::new([("x".to_owned(), ParamValue::Number(1.0))]);
+        assert!(r.build_term("ambient", None, p).err().unwrap().to_string().contains("its parameters: none"));
+    }
+
+    #[test]
+    fn duplicates_are_refused() {
+        let mut r = Registry::with_builtins();
+        assert!(r.register_term(crate::terms::ambient::SPEC).is_err());
+        assert!(r.register_shadow(crate::shadows::hard::SPEC).is_err());
+        let a = r.build_term("ambient", None, Params::default()).unwrap();
+        let b = r.build_term("ambient", None, Params::default()).unwrap();
+        let s = r.build_shadow("none", Params::default()).unwrap();
+        assert_eq!(Pipeline::new(1, s, vec![a, b]).err().unwrap(), ModelError::DuplicateTerm("ambient".into()));
+    }
+}

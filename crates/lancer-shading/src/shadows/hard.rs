@@ -1,0 +1,30 @@
+//! `hard`: the handout's shadows. A light is seen or not; any object between the point and the
+//! light blocks it, transparent or not.
+//!
+//! Formula: transmittance = 0 if the segment to the light meets an object, else 1.
+//! Reads no material parameter, has no parameter.
+//!
+//! ```toml
+//! [model]
+//! shadows = "hard"
+//! ```
+
+use glam::Vec3;
+
+use crate::{Params, ShadowContext, ShadowModel, ShadowSpec};
+
+/// The spec registered under `hard`.
+pub const SPEC: ShadowSpec = ShadowSpec {
+    name: "hard",
+    summary: "the handout's shadows: any object between the point and the light blocks it",
+    params: &[],
+    build: |_: &mut Params| Ok(Box::new(Hard)),
+};
+
+struct Hard;
+
+impl ShadowModel for Hard {
+    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Vec3, dir: Vec3, dist: f32) -> Vec3 {
+        if ctx.geometry.closest_hit(from, dir, 0.0, dist).is_some() { Vec3::ZERO } else { Vec3::ONE }
+    }
+}

@@ -1,0 +1,28 @@
+//! `none`: every light reaches every point that faces it.
+//!
+//! Formula: transmittance = 1. Reads no material parameter, has no parameter.
+//!
+//! ```toml
+//! [model]
+//! shadows = "none"
+//! ```
+
+use glam::Vec3;
+
+use crate::{Params, ShadowContext, ShadowModel, ShadowSpec};
+
+/// The spec registered under `none`.
+pub const SPEC: ShadowSpec = ShadowSpec {
+    name: "none",
+    summary: "no shadows: every light reaches every surface that faces it",
+    params: &[],
+    build: |_: &mut Params| Ok(Box::new(NoShadows)),
+};
+
+struct NoShadows;
+
+impl ShadowModel for NoShadows {
+    fn transmittance(&self, _: &ShadowContext<'_>, _: Vec3, _: Vec3, _: f32) -> Vec3 {
+        Vec3::ONE
+    }
+}

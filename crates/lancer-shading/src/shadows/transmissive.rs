@@ -1,0 +1,69 @@
+//! `transmissive`: transparent occluders let light through. Each object crossed on the way to the
+//! light multiplies it by its `alpha` (and, with `tint = true`, by its colour); an opaque object
+//! (`alpha = 0`) blocks it. So glass casts a lighter shadow.
+//!
+//! Formula: transmittance = Π over objects crossed of `alpha_k` (× `Col_k` with `tint`).
+//! Reads: `alpha`, `color` of occluders. Parameters: `tint` (default `false`).
+//!
+//! ```toml
+//! [model]
+//! shadows = { model = "transmissive", tint = true }
+//! ```
+
+use glam::Vec3;
+use lancer_shapes::offset_origin;
+
+use crate::{ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
+
+/// The spec registered under `transmissive`.
+pub const SPEC: ShadowSpec = ShadowSpec {
+    name: "transmissive",
+    summary: "transparent occluders attenuate the light by their alpha instead of blocking it",
+    params: &[ParamSpec { name: "tint", default: "false", doc: "also filter the light by each occluder's colour" }],
+    build: |p: &mut Params| Ok(Box::new(Transmissive { tint: p.boolean("tint", false)? })),
+};
+
+/// More crossings than this on one shadow ray count as fully blocked (a pathological stack of
+/// thin glass); it keeps the loop bounded.
+const MAX_CROSSINGS: usize = 64;
+
+struct Transmissive {
+    tint: bool,
+}
+
+impl ShadowModel for Transmissive {
+    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Vec3, dir: Vec3, dist: f32) -> Vec3 {
+        let mut light = Vec3::ONE;
+        let (mut from, mut left) = (from, dist);
+        for _ in 0..MAX_CROSSINGS {
+            let Some(hit) = ctx.geometry.closest_hit(from, dir, 0.0, left) else { return light };
+            let m = ctx.material(hit.object);
+            if m.alpha <= 0.0 {
+                return Vec3::ZERO;
+            }
+            light *= if self.tint { m.alpha * m.color } else { Vec3::splat(m.alpha) };
+            let p = from + hit.t * dir;
+            // Count each object once: jump from its entry to where the ray leaves it.
+            let past = if hit.front {
+                let inside = offset_origin(p, -hit.normal);
+                match ctx.geometry.exit(hit.object, inside, dir) {
+                    Some(exit) => {
+                        let q = inside + exit.t * dir;
+                        offset_origin(q, exit.normal)
+                    }
+                    // It never ends (a plane's half-space): the light is inside it.
+                    None => return light,
+                }
+            } else {
+                offset_origin(p, hit.normal)
+            };
+            let moved = (past - from).dot(dir);
+            if moved >= left {
+                return light;
+            }
+            left -= moved;
+            from = past;
+        }
+        Vec3::ZERO
+    }
+}

@@ -1,0 +1,108 @@
+//! The `Term` trait: an illumination term is a system run over every ray chunk of a generation.
+
+use glam::Vec3;
+use lancer_core::rays::{CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
+use lancer_core::{Material, PointLight};
+use lancer_shapes::Geometry;
+
+/// Read-only scene data every term may use.
+pub struct ShadeContext<'a> {
+    /// The scene's objects.
+    pub geometry: &'a Geometry,
+    /// The material table (`Object::material` indexes it).
+    pub materials: &'a [Material],
+    /// The point lights, in scene order (the order of `LightSamples` entries).
+    pub lights: &'a [PointLight],
+    /// The recursion limit (`max_depth`).
+    pub max_depth: u8,
+}
+
+impl ShadeContext<'_> {
+    /// The material of the object hit in `lane` (which must have a hit).
+    #[inline]
+    pub fn material(&self, hits: &Hits, lane: usize) -> &Material {
+        let object = &self.geometry.objects[hits.object[lane] as usize];
+        &self.materials[object.material as usize]
+    }
+}
+
+/// One chunk of the ray world as a term sees it: rays, their closest hits, the light at each hit.
+#[derive(Clone, Copy)]
+pub struct Chunk<'a> {
+    /// The rays.
+    pub rays: &'a Rays,
+    /// Their hits.
+    pub hits: &'a Hits,
+    /// Light reaching each hit.
+    pub lights: &'a LightSamples,
+}
+
+impl Chunk<'_> {
+    /// Lanes whose ray hit something.
+    #[inline]
+    pub fn hit_lanes(&self) -> impl Iterator<Item = usize> + '_ {
+        self.hits.object.iter().enumerate().filter(|(_, o)| **o != NO_HIT).map(|(i, _)| i)
+    }
+}
+
+/// Where a term puts its results: colour added at a lane's pixel, and child rays for the next
+/// generation. Credit follows the handout's five-summand formula: a camera ray's contributions go
+/// to the term's own image; a child ray's go to the image of the term that spawned the camera
+/// ray's child (mirror or refraction), whatever term produces them deeper down.
+pub struct TermOutput<'a> {
+    pub(crate) layer: u16,
+    pub(crate) rays: &'a Rays,
+    pub(crate) accum: &'a mut [Vec<Vec3>],
+    pub(crate) next: &'a mut Rays,
+    pub(crate) max_depth: u8,
+}
+
+impl TermOutput<'_> {
+    #[inline]
+    fn credit(&self, lane: usize) -> u16 {
+        match self.rays.credit[lane] {
+            CREDIT_OWN => self.layer,
+            c => c,
+        }
+    }
+
+    /// Adds `colour` (before the ray's weight) to the pixel of `lane`.
+    #[inline]
+    pub fn add(&mut self, lane: usize, colour: Vec3) {
+        let layer = self.credit(lane) as usize;
+        self.accum[layer][self.rays.pixel[lane] as usize] += self.rays.weight[lane] * colour;
+    }
+
+    /// Whether a child of `lane` would be within the depth limit.
+    #[inline]
+    pub fn can_spawn(&self, lane: usize) -> bool {
+        self.rays.depth[lane] < self.max_depth
+    }
+
+    /// Queues a child ray of `lane` whose colour counts `factor` times in the parent's. Does
+    /// nothing past the depth limit or for a zero factor.
+    #[inline]
+    pub fn spawn(&mut self, lane: usize, origin: Vec3, dir: Vec3, factor: Vec3) {
+        let weight = self.rays.weight[lane] * factor;
+        if !self.can_spawn(lane) || weight == Vec3::ZERO {
+            return;
+        }
+        let credit = self.credit(lane);
+        self.next.push(origin, dir, weight, self.rays.pixel[lane], self.rays.depth[lane] + 1, credit);
+    }
+}
+
+/// An illumination term: a system that runs over every chunk of rays of each generation and adds
+/// its summand of the model to the chunk's pixels (and may spawn child rays).
+///
+/// Implement it in your own crate and register it with [`crate::Registry::register_term`].
+pub trait Term: Send + Sync {
+    /// Adds this term's contribution for every lane of `chunk`.
+    fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>);
+}
+
+/// The point and surface normal terms shade with: the normal faces the incoming ray.
+#[inline]
+pub(crate) fn facing(chunk: &Chunk<'_>, lane: usize) -> (Vec3, Vec3) {
+    (chunk.hits.point[lane], chunk.hits.facing_normal(lane))
+}

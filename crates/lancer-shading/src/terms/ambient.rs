@@ -1,0 +1,33 @@
+//! `ambient` (variant `seed`): light that bathes the whole scene uniformly.
+//!
+//! Formula: `Col += ambi · Col_Ω`, once per hit, whatever the lights.
+//! Reads: `ambi`, `color`. Parameters: none.
+//!
+//! ```toml
+//! [model]
+//! terms = ["ambient"]
+//! ```
+
+use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
+
+/// The spec registered as `ambient`, variant `seed`.
+pub const SPEC: TermSpec = TermSpec {
+    name: "ambient",
+    variant: "seed",
+    summary: "ambi · Col_Ω: uniform light from unmodelled inter-reflections",
+    params: &[],
+    build: |_: &mut Params| Ok(Box::new(Ambient)),
+};
+
+struct Ambient;
+
+impl Term for Ambient {
+    fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        for lane in chunk.hit_lanes() {
+            let m = ctx.material(chunk.hits, lane);
+            if m.ambi > 0.0 {
+                out.add(lane, m.ambi * m.color);
+            }
+        }
+    }
+}

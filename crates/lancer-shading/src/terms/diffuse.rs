@@ -1,0 +1,42 @@
+//! `diffuse` (variant `lambert`): matte reflection, independent of the viewpoint.
+//!
+//! Formula: `Col += diff · max(N·w, 0) · Col_Ω · Col_L` per visible light.
+//! Reads: `diff`, `color`. Parameters: none.
+//!
+//! ```toml
+//! [model]
+//! terms = ["ambient", "diffuse"]
+//! ```
+
+use glam::Vec3;
+
+use crate::term::facing;
+use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
+
+/// The spec registered as `diffuse`, variant `lambert`.
+pub const SPEC: TermSpec = TermSpec {
+    name: "diffuse",
+    variant: "lambert",
+    summary: "diff · (N·w) · Col_Ω · Col_L: Lambert's matte reflection",
+    params: &[],
+    build: |_: &mut Params| Ok(Box::new(Lambert)),
+};
+
+struct Lambert;
+
+impl Term for Lambert {
+    fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        for lane in chunk.hit_lanes() {
+            let m = ctx.material(chunk.hits, lane);
+            if m.diff <= 0.0 {
+                continue;
+            }
+            let (_, n) = facing(&chunk, lane);
+            let mut sum = Vec3::ZERO;
+            for (w, light) in chunk.lights.lane(lane) {
+                sum += n.dot(w).max(0.0) * light;
+            }
+            out.add(lane, m.diff * m.color * sum);
+        }
+    }
+}

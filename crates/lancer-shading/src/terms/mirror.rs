@@ -1,0 +1,43 @@
+//! `mirror` (variant `constant`, the seed): recursive reflection of the rest of the scene.
+//!
+//! Formula: `u_r = u − 2 (N·u) N`, trace `R_r = [I, u_r)`, `Col += spec · Col(R_r)`, until the
+//! depth reaches `max_depth`. The mirror image holds everything the reflected rays bring back.
+//! Reads: `spec`. Parameters: none.
+//!
+//! ```toml
+//! [model]
+//! max_depth = 5
+//! terms = ["ambient", "diffuse", "specular", "mirror"]
+//! ```
+
+use glam::Vec3;
+use lancer_core::optics::reflect;
+use lancer_shapes::offset_origin;
+
+use crate::term::facing;
+use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
+
+/// The spec registered as `mirror`, variant `constant`.
+pub const SPEC: TermSpec = TermSpec {
+    name: "mirror",
+    variant: "constant",
+    summary: "spec · Col(R_r): recursive mirror reflection weighted by spec",
+    params: &[],
+    build: |_: &mut Params| Ok(Box::new(Mirror)),
+};
+
+struct Mirror;
+
+impl Term for Mirror {
+    fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        for lane in chunk.hit_lanes() {
+            let m = ctx.material(chunk.hits, lane);
+            if m.spec <= 0.0 || !out.can_spawn(lane) {
+                continue;
+            }
+            let (p, n) = facing(&chunk, lane);
+            let u_r = reflect(chunk.rays.dir[lane], n);
+            out.spawn(lane, offset_origin(p, n), u_r, Vec3::splat(m.spec));
+        }
+    }
+}

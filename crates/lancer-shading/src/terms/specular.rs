@@ -1,0 +1,90 @@
+//! `specular` (variant `phong`, the handout's seed form): the highlight of a shiny surface.
+//!
+//! Formula, per visible light with `N·w > 0`: `w_r = 2 (N·w) N − w`,
+//! `Col += spec · shine · max(−u·w_r, 0)^(1/(1−shine)) · Col_L`.
+//! `shine = 1` means an infinite exponent: the highlight shrinks to the single mirror direction
+//! and vanishes, so it contributes nothing (never a NaN). `shine = 0` gives nothing either
+//! (`spec · shine = 0`).
+//! Reads: `spec`, `shine`. Parameters: none.
+//!
+//! ```toml
+//! [model]
+//! terms = ["ambient", "diffuse", "specular"]
+//! ```
+
+use glam::Vec3;
+
+use crate::term::facing;
+use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
+
+/// The spec registered as `specular`, variant `phong`.
+pub const SPEC: TermSpec = TermSpec {
+    name: "specular",
+    variant: "phong",
+    summary: "spec · shine · (−u·w_r)^(1/(1−shine)) · Col_L: the handout's Phong highlight",
+    params: &[],
+    build: |_: &mut Params| Ok(Box::new(Phong)),
+};
+
+struct Phong;
+
+/// The seed highlight factor `shine · c^(1/(1−shine))` for `c = max(−u·w_r, 0)`, finite for every
+/// `shine` in [0, 1].
+#[inline]
+pub fn phong_factor(shine: f32, c: f32) -> f32 {
+    if shine <= 0.0 || shine >= 1.0 || c <= 0.0 {
+        return 0.0;
+    }
+    shine * c.min(1.0).powf(1.0 / (1.0 - shine))
+}
+
+impl Term for Phong {
+    fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        for lane in chunk.hit_lanes() {
+            let m = ctx.material(chunk.hits, lane);
+            if m.spec <= 0.0 || m.shine <= 0.0 || m.shine >= 1.0 {
+                continue;
+            }
+            let (_, n) = facing(&chunk, lane);
+            let u = chunk.rays.dir[lane];
+            let mut sum = Vec3::ZERO;
+            for (w, light) in chunk.lights.lane(lane) {
+                let nw = n.dot(w);
+                if nw <= 0.0 || light == Vec3::ZERO {
+                    continue;
+                }
+                let w_r = 2.0 * nw * n - w;
+                sum += phong_factor(m.shine, -u.dot(w_r)) * light;
+            }
+            out.add(lane, m.spec * sum);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::phong_factor;
+
+    #[test]
+    fn handout_shine_ladder_exponents() {
+        // shine 0.99, 0.8, 0.5, 0.2 → exponents 100, 5, 2, 1.25.
+        for (shine, e) in [(0.99f32, 100.0f32), (0.8, 5.0), (0.5, 2.0), (0.2, 1.25)] {
+            let c = 0.9f32;
+            assert!((phong_factor(shine, c) - shine * c.powf(e)).abs() < 1e-5, "shine {shine}");
+        }
+    }
+
+    #[test]
+    fn shine_zero_and_one_are_defined_and_finite() {
+        assert_eq!(phong_factor(0.0, 1.0), 0.0);
+        assert_eq!(phong_factor(0.0, 0.5), 0.0);
+        // An infinite exponent: no highlight at all, even dead on the mirror direction.
+        assert_eq!(phong_factor(1.0, 1.0), 0.0);
+        assert_eq!(phong_factor(1.0, 0.999), 0.0);
+        // Rounding can push −u·w_r a hair past 1; it must not blow up.
+        assert!(phong_factor(0.99, 1.000_001).is_finite());
+        assert!((phong_factor(0.99, 1.0) - 0.99).abs() < 1e-6);
+        // Away from the highlight, nothing.
+        assert_eq!(phong_factor(0.5, -0.3), 0.0);
+    }
+}
