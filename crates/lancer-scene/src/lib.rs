@@ -1,1 +1,10 @@
-//! placeholder
+//! Scene and model files: TOML text (SCENE-FORMAT.md) → a [`lancer_core::Scene`] (a hecs World of
+//! objects, materials and lights) and a [`lancer_shading::Pipeline`] built from the registry.
+//! Every error names the file, line and column. No file system access: callers pass the text.
+
+mod build;
+mod doc;
+mod error;
+
+pub use build::{Loaded, load_model, load_scene};
+pub use error::{LoadError, LoadErrorKind};

@@ -270,14 +270,18 @@ impl Registry {
         Ok(NamedShadow { name: name.to_owned(), model })
     }
 
-    /// The handout's full model: every built-in term in order, hard shadows, depth 5.
-    pub fn default_pipeline(&self) -> Pipeline {
-        let terms = crate::terms::BUILTIN
+    /// Every built-in term, default variant, in the handout's order.
+    pub fn default_terms(&self) -> Vec<NamedTerm> {
+        crate::terms::BUILTIN
             .iter()
             .map(|t| self.build_term(t.name, None, Params::default()).expect("built-in terms build without parameters"))
-            .collect();
+            .collect()
+    }
+
+    /// The handout's full model: every built-in term in order, hard shadows, depth 5.
+    pub fn default_pipeline(&self) -> Pipeline {
         let shadows = self.build_shadow(crate::shadows::DEFAULT, Params::default()).expect("the default shadow model exists");
-        Pipeline::new(5, shadows, terms).expect("built-in term names are distinct")
+        Pipeline::new(5, shadows, self.default_terms()).expect("built-in term names are distinct")
     }
 }
 

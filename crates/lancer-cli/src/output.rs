@@ -1,0 +1,112 @@
+//! Image encoding and atomic file output.
+
+use std::io::{Cursor, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use glam::Vec3;
+
+/// The sRGB transfer function of one linear channel, clamped to [0, 1].
+#[inline]
+pub fn srgb_encode(linear: f32) -> f32 {
+    let c = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
+    if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// 8-bit sRGB pixels of a linear image, row-major RGB.
+pub fn to_srgb8(pixels: &[Vec3]) -> Vec<u8> {
+    pixels.iter().flat_map(|p| p.to_array()).map(|c| (srgb_encode(c) * 255.0 + 0.5) as u8).collect()
+}
+
+/// A PNG file's bytes: the linear image sRGB-encoded to 8 bits per channel.
+pub fn encode_png(width: u32, height: u32, pixels: &[Vec3]) -> Result<Vec<u8>> {
+    let img = image::RgbImage::from_raw(width, height, to_srgb8(pixels)).context("image buffer has the wrong size")?;
+    let mut out = Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).context("encoding PNG")?;
+    Ok(out.into_inner())
+}
+
+/// An OpenEXR file's bytes: the linear image as 32-bit floats.
+pub fn encode_exr(width: u32, height: u32, pixels: &[Vec3]) -> Result<Vec<u8>> {
+    let raw: Vec<f32> = pixels.iter().flat_map(|p| p.to_array()).collect();
+    let img = image::Rgb32FImage::from_raw(width, height, raw).context("image buffer has the wrong size")?;
+    let mut out = Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::OpenExr).context("encoding EXR")?;
+    Ok(out.into_inner())
+}
+
+/// The image formats `lancer` writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// sRGB 8-bit PNG.
+    Png,
+    /// Linear float OpenEXR.
+    Exr,
+}
+
+impl Format {
+    /// The format a path's extension asks for.
+    pub fn of(path: &Path) -> Result<Format> {
+        match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+            Some("png") => Ok(Format::Png),
+            Some("exr") => Ok(Format::Exr),
+            _ => bail!("output {} must end in .png (sRGB 8-bit) or .exr (linear float)", path.display()),
+        }
+    }
+
+    /// Encodes a linear image in this format.
+    pub fn encode(self, width: u32, height: u32, pixels: &[Vec3]) -> Result<Vec<u8>> {
+        match self {
+            Format::Png => encode_png(width, height, pixels),
+            Format::Exr => encode_exr(width, height, pixels),
+        }
+    }
+}
+
+/// Writes `bytes` to `path` whole or not at all: into a temporary file beside it, then renamed.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
+    let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e).with_context(|| format!("writing {}", path.display()));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_curve_endpoints_and_midpoint() {
+        assert_eq!(srgb_encode(0.0), 0.0);
+        assert!((srgb_encode(1.0) - 1.0).abs() < 1e-6);
+        // Linear 0.214 is sRGB ~0.5 (the familiar "middle grey" pair).
+        assert!((srgb_encode(0.214) - 0.5).abs() < 2e-3);
+        assert_eq!(srgb_encode(f32::NAN), 0.0);
+        assert_eq!(srgb_encode(7.0), srgb_encode(1.0));
+        assert_eq!(to_srgb8(&[Vec3::new(0.0, 1.0, 2.0)]), [0, 255, 255]);
+    }
+
+    #[test]
+    fn exr_round_trips_linear_floats() {
+        let px = vec![Vec3::new(0.25, 1.5, 0.0), Vec3::new(3.0, 0.125, 0.5)];
+        let bytes = encode_exr(2, 1, &px).unwrap();
+        let back = image::load_from_memory(&bytes).unwrap().into_rgb32f();
+        assert_eq!(back.as_raw(), &[0.25, 1.5, 0.0, 3.0, 0.125, 0.5]);
+    }
+
+    #[test]
+    fn unknown_extension_is_refused() {
+        assert!(Format::of(Path::new("x.jpg")).unwrap_err().to_string().contains(".png"));
+        assert_eq!(Format::of(Path::new("x.EXR")).unwrap(), Format::Exr);
+    }
+}

@@ -1,0 +1,200 @@
+//! From the parsed document to the hecs World and the pipeline, checking names against the
+//! registry and the materials table.
+
+use std::collections::HashMap;
+use std::ops::Range;
+
+use glam::{Affine3A, Mat3, Vec3};
+use lancer_core::{Camera, ImageSettings, Material, MaterialOf, Meta, PointLight, Scene, Transform};
+use lancer_shading::{ParamValue, Params, Pipeline, Registry};
+use lancer_shapes::Shape;
+use toml::Spanned;
+
+use crate::doc::{MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, SceneDoc};
+use crate::{LoadError, LoadErrorKind};
+
+/// A loaded scene file: the scene and the lighting model its `[model]` describes.
+pub struct Loaded {
+    /// Objects, materials, lights, camera, image settings.
+    pub scene: Scene,
+    /// The `[model]` table built against the registry (the full handout model when absent).
+    pub pipeline: Pipeline,
+}
+
+struct Ctx<'a> {
+    file: &'a str,
+    src: &'a str,
+}
+
+impl Ctx<'_> {
+    fn err(&self, span: Range<usize>, kind: LoadErrorKind) -> LoadError {
+        LoadError::at(self.file, self.src, Some(span), kind)
+    }
+
+    fn syntax(&self, e: toml::de::Error) -> LoadError {
+        LoadError::at(self.file, self.src, e.span(), LoadErrorKind::Syntax(e.message().trim_end().to_owned()))
+    }
+}
+
+/// Loads the scene file `file` whose text is `src`.
+pub fn load_scene(src: &str, file: &str, registry: &Registry) -> Result<Loaded, LoadError> {
+    let cx = Ctx { file, src };
+    let doc: SceneDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
+    let pipeline = match &doc.model {
+        Some(m) => build_pipeline(&cx, m, registry)?,
+        None => registry.default_pipeline(),
+    };
+    let mut world = hecs::World::new();
+
+    let mut named: HashMap<&str, hecs::Entity> = HashMap::new();
+    for (name, m) in &doc.materials {
+        named.insert(name, world.spawn((material(m),)));
+    }
+    for l in &doc.lights {
+        world.spawn((PointLight { at: vec3(l.at), color: Vec3::from(l.color), intensity: l.intensity },));
+    }
+    for o in &doc.objects {
+        let obj = o.get_ref();
+        let shape = Shape::from_name(obj.shape.get_ref()).ok_or_else(|| {
+            let name = obj.shape.get_ref();
+            cx.err(
+                obj.shape.span(),
+                LoadErrorKind::UnknownShape {
+                    name: name.clone(),
+                    nearest: lancer_shading::nearest(name, Shape::NAMES.iter().copied()),
+                    known: Shape::NAMES.iter().map(|s| s.to_string()).collect(),
+                },
+            )
+        })?;
+        let mat = match obj.material.as_ref().map(|m| (m.span(), m.get_ref())) {
+            None => None,
+            Some((_, MaterialRef::Inline(m))) => Some(world.spawn((material(m),))),
+            Some((span, MaterialRef::Named(name))) => Some(*named.get(name.as_str()).ok_or_else(|| {
+                let known: Vec<String> = doc.materials.keys().cloned().collect();
+                cx.err(
+                    span,
+                    LoadErrorKind::UnknownMaterial {
+                        name: name.clone(),
+                        nearest: lancer_shading::nearest(name, known.iter().map(String::as_str)),
+                        known,
+                    },
+                )
+            })?),
+        };
+        let scale = obj.scale.as_ref().map_or(Vec3::ONE, |s| Vec3::from(s.get_ref().0));
+        let [rx, ry, rz] = obj.rotate.map_or([0.0; 3], |r| r.map(|Num(d)| d.to_radians()));
+        // Degrees about x, then y, then z; scale first, translate last.
+        let rotation = Mat3::from_rotation_z(rz) * Mat3::from_rotation_y(ry) * Mat3::from_rotation_x(rx);
+        let world_from_object =
+            Affine3A::from_mat3_translation(rotation * Mat3::from_diagonal(scale), obj.translate.map_or(Vec3::ZERO, vec3));
+        let transform = Transform { world_from_object };
+        match mat {
+            Some(m) => world.spawn((shape, transform, MaterialOf(m))),
+            None => world.spawn((shape, transform)),
+        };
+    }
+
+    let cam = doc.camera.get_ref();
+    let camera = Camera::look_at(vec3(cam.from), vec3(cam.to), vec3(cam.up), cam.fov.0)
+        .map_err(|e| cx.err(doc.camera.span(), LoadErrorKind::Camera(e.to_string())))?;
+    let image = ImageSettings {
+        width: doc.image.width,
+        height: doc.image.height,
+        background: Vec3::from(doc.image.background),
+        samples: doc.image.samples,
+    };
+    let meta = Meta { title: doc.meta.title, description: doc.meta.description };
+    Ok(Loaded { scene: Scene { world, camera, image, meta }, pipeline })
+}
+
+/// Loads a model file (the keys of `[model]` at top level), replacing a scene's own model.
+pub fn load_model(src: &str, file: &str, registry: &Registry) -> Result<Pipeline, LoadError> {
+    let cx = Ctx { file, src };
+    let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
+    build_pipeline(&cx, &doc, registry)
+}
+
+fn vec3(v: [Num; 3]) -> Vec3 {
+    Vec3::new(v[0].0, v[1].0, v[2].0)
+}
+
+fn material(m: &MaterialDoc) -> Material {
+    Material { color: Vec3::from(m.color), ambi: m.ambi, diff: m.diff, spec: m.spec, shine: m.shine, alpha: m.alpha, n: m.n }
+}
+
+/// The span of a name: its own in table form, the whole entry's for a bare string.
+fn name_span(entry: &Spanned<NamedDoc>) -> Range<usize> {
+    let own = entry.get_ref().name.span();
+    if own.is_empty() { entry.span() } else { own }
+}
+
+fn params(cx: &Ctx<'_>, entry: &NamedDoc) -> Result<Params, LoadError> {
+    let mut out = Vec::new();
+    for (k, v) in &entry.params {
+        let value = match v.get_ref() {
+            toml::Value::Integer(i) => ParamValue::Number(*i as f64),
+            toml::Value::Float(f) if f.is_finite() => ParamValue::Number(*f),
+            toml::Value::Boolean(b) => ParamValue::Bool(*b),
+            toml::Value::String(s) => ParamValue::Text(s.clone()),
+            other => {
+                let what = match other {
+                    toml::Value::Float(_) => "a non-finite number",
+                    toml::Value::Array(_) => "an array",
+                    toml::Value::Table(_) => "a table",
+                    _ => "a date",
+                };
+                return Err(cx.err(
+                    v.span(),
+                    LoadErrorKind::Syntax(format!("parameter `{}`: expected a finite number, boolean or string, found {what}", k.get_ref())),
+                ));
+            }
+        };
+        out.push((k.get_ref().clone(), value));
+    }
+    Ok(Params::new(out))
+}
+
+/// Where a model error points: the parameter it names if any, else the name.
+fn model_err(cx: &Ctx<'_>, entry: &Spanned<NamedDoc>, e: lancer_shading::ModelError) -> LoadError {
+    use lancer_shading::ModelError as M;
+    let doc = entry.get_ref();
+    let param_span = |p: &str| doc.params.iter().find(|(k, _)| k.get_ref() == p).map(|(k, _)| k.span());
+    let span = match &e {
+        M::UnknownParam { param, .. } => param_span(param),
+        M::BadParam { error, .. } => doc.params.iter().find(|(k, _)| *k.get_ref() == error.param).map(|(_, v)| v.span()),
+        M::UnknownVariant { .. } => doc.variant.as_ref().map(|v| v.span()),
+        _ => None,
+    };
+    cx.err(span.unwrap_or_else(|| name_span(entry)), LoadErrorKind::Model(e))
+}
+
+fn build_pipeline(cx: &Ctx<'_>, m: &ModelDoc, registry: &Registry) -> Result<Pipeline, LoadError> {
+    let shadows = match &m.shadows {
+        None => registry.build_shadow(lancer_shading::shadows::DEFAULT, Params::default()).expect("the default shadow model exists"),
+        Some(entry) => {
+            let doc = entry.get_ref();
+            if doc.key.as_deref() == Some("term") || doc.variant.is_some() {
+                let at = doc.variant.as_ref().map_or_else(|| name_span(entry), |v| v.span());
+                return Err(cx.err(at, LoadErrorKind::Syntax("a shadow model is named with `model = \"...\"` and has no variant".into())));
+            }
+            registry.build_shadow(doc.name.get_ref(), params(cx, doc)?).map_err(|e| model_err(cx, entry, e))?
+        }
+    };
+    let terms = match &m.terms {
+        None => return Pipeline::new(m.max_depth, shadows, registry.default_terms()).map_err(|e| cx.err(0..0, LoadErrorKind::Model(e))),
+        Some(list) => list,
+    };
+    let mut built = Vec::with_capacity(terms.len());
+    for entry in terms {
+        let doc = entry.get_ref();
+        if doc.key.as_deref() == Some("model") {
+            return Err(cx.err(name_span(entry), LoadErrorKind::Syntax("a term is named with `term = \"...\"`".into())));
+        }
+        let variant = doc.variant.as_ref().map(|v| v.get_ref().as_str());
+        built.push(registry.build_term(doc.name.get_ref(), variant, params(cx, doc)?).map_err(|e| model_err(cx, entry, e))?);
+    }
+    Pipeline::new(m.max_depth, shadows, built).map_err(|e| {
+        let dup = terms.iter().enumerate().find(|(i, t)| terms[..*i].iter().any(|u| u.get_ref().name.get_ref() == t.get_ref().name.get_ref()));
+        cx.err(dup.map_or(0..0, |(_, t)| name_span(t)), LoadErrorKind::Model(e))
+    })
+}

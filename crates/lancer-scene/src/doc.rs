@@ -1,0 +1,349 @@
+//! The scene file's serde shape (SCENE-FORMAT.md, version 1). Unknown keys are rejected; numbers
+//! must be finite and in range, checked while deserialising so errors carry the value's span.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::Deserialize;
+use toml::Spanned;
+
+/// A finite number; integers are accepted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Num(pub f32);
+
+struct NumVisitor;
+
+impl Visitor<'_> for NumVisitor {
+    type Value = Num;
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a finite number")
+    }
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Num, E> {
+        if v.is_finite() && v.abs() <= f32::MAX as f64 {
+            Ok(Num(v as f32))
+        } else {
+            Err(E::custom(format!("expected a finite number, found {v}")))
+        }
+    }
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Num, E> {
+        Ok(Num(v as f32))
+    }
+    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Num, E> {
+        Ok(Num(v as f32))
+    }
+}
+
+impl<'de> Deserialize<'de> for Num {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Num, D::Error> {
+        d.deserialize_any(NumVisitor)
+    }
+}
+
+/// A finite number in `[lo, hi]`.
+fn ranged<'de, D: Deserializer<'de>>(d: D, lo: f32, hi: f32) -> Result<f32, D::Error> {
+    let Num(x) = Num::deserialize(d)?;
+    if (lo..=hi).contains(&x) { Ok(x) } else { Err(de::Error::custom(format!("expected a number in [{lo}, {hi}], found {x}"))) }
+}
+
+fn unit<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    ranged(d, 0.0, 1.0)
+}
+
+fn index<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    ranged(d, 1.0, 2.5)
+}
+
+fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    ranged(d, 0.0, f32::MAX)
+}
+
+fn colour<'de, D: Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
+    let [r, g, b] = <[Num; 3]>::deserialize(d)?;
+    if [r, g, b].iter().any(|c| c.0 < 0.0) {
+        return Err(de::Error::custom("expected a colour [r, g, b] with no negative channel"));
+    }
+    Ok([r.0, g.0, b.0])
+}
+
+fn one<'de, D: Deserializer<'de>>(d: D, lo: u32, hi: u32) -> Result<u32, D::Error> {
+    let v = i64::deserialize(d)?;
+    if (lo as i64..=hi as i64).contains(&v) {
+        Ok(v as u32)
+    } else {
+        Err(de::Error::custom(format!("expected a whole number in [{lo}, {hi}], found {v}")))
+    }
+}
+
+/// Largest image side: 16384 pixels.
+pub const MAX_SIDE: u32 = 16384;
+
+fn side<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    one(d, 1, MAX_SIDE)
+}
+
+fn samples<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    one(d, 1, 4096)
+}
+
+/// Largest `max_depth`: 64 (the child ray's depth is a byte; Whitted scenes need 4 or 5).
+pub const MAX_DEPTH: u32 = 64;
+
+fn depth<'de, D: Deserializer<'de>>(d: D) -> Result<u8, D::Error> {
+    one(d, 0, MAX_DEPTH).map(|v| v as u8)
+}
+
+/// The whole scene file.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDoc {
+    #[serde(default)]
+    pub meta: MetaDoc,
+    #[serde(default)]
+    pub image: ImageDoc,
+    pub camera: Spanned<CameraDoc>,
+    pub model: Option<ModelDoc>,
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialDoc>,
+    #[serde(default)]
+    pub lights: Vec<LightDoc>,
+    #[serde(default)]
+    pub objects: Vec<Spanned<ObjectDoc>>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct MetaDoc {
+    pub title: Option<String>,
+    pub description: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImageDoc {
+    #[serde(default = "d_width", deserialize_with = "side")]
+    pub width: u32,
+    #[serde(default = "d_height", deserialize_with = "side")]
+    pub height: u32,
+    #[serde(default, deserialize_with = "colour")]
+    pub background: [f32; 3],
+    #[serde(default = "d_one", deserialize_with = "samples")]
+    pub samples: u32,
+}
+
+impl Default for ImageDoc {
+    fn default() -> Self {
+        ImageDoc { width: d_width(), height: d_height(), background: [0.0; 3], samples: 1 }
+    }
+}
+
+fn d_width() -> u32 {
+    640
+}
+fn d_height() -> u32 {
+    480
+}
+fn d_one() -> u32 {
+    1
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDoc {
+    pub from: [Num; 3],
+    pub to: [Num; 3],
+    #[serde(default = "d_up")]
+    pub up: [Num; 3],
+    #[serde(default = "d_fov")]
+    pub fov: Num,
+}
+
+fn d_up() -> [Num; 3] {
+    [Num(0.0), Num(1.0), Num(0.0)]
+}
+fn d_fov() -> Num {
+    Num(45.0)
+}
+
+/// `[model]`, or a whole model file.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelDoc {
+    #[serde(default = "d_depth", deserialize_with = "depth")]
+    pub max_depth: u8,
+    pub shadows: Option<Spanned<NamedDoc>>,
+    pub terms: Option<Vec<Spanned<NamedDoc>>>,
+}
+
+fn d_depth() -> u8 {
+    5
+}
+
+/// A term or shadow model: a bare name, or a table with its name under `key` (`term` or
+/// `model`), an optional `variant` and parameters.
+pub struct NamedDoc {
+    pub name: Spanned<String>,
+    pub variant: Option<Spanned<String>>,
+    pub params: Vec<(Spanned<String>, Spanned<toml::Value>)>,
+    /// Which key held the name in table form (`term` or `model`), for error messages.
+    pub key: Option<String>,
+}
+
+struct NamedVisitor;
+
+impl<'de> Visitor<'de> for NamedVisitor {
+    type Value = NamedDoc;
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a name, or a table such as { term = \"specular\", variant = \"phong\" }")
+    }
+    fn visit_str<E: de::Error>(self, v: &str) -> Result<NamedDoc, E> {
+        // The string's span is the enclosing Spanned's; the builder fills it in.
+        Ok(NamedDoc { name: Spanned::new(0..0, v.to_owned()), variant: None, params: Vec::new(), key: None })
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<NamedDoc, A::Error> {
+        let (mut name, mut variant, mut key, mut params) = (None, None, None, Vec::new());
+        while let Some(k) = map.next_key::<Spanned<String>>()? {
+            match k.get_ref().as_str() {
+                "term" | "model" => {
+                    if name.is_some() {
+                        return Err(de::Error::custom("give the name once, as `term` (a term) or `model` (a shadow model)"));
+                    }
+                    key = Some(k.get_ref().clone());
+                    name = Some(map.next_value::<Spanned<String>>()?);
+                }
+                "variant" => variant = Some(map.next_value::<Spanned<String>>()?),
+                _ => params.push((k, map.next_value::<Spanned<toml::Value>>()?)),
+            }
+        }
+        let name = name.ok_or_else(|| de::Error::custom("missing the name: `term = \"...\"` for a term, `model = \"...\"` for a shadow model"))?;
+        Ok(NamedDoc { name, variant, params, key })
+    }
+}
+
+impl<'de> Deserialize<'de> for NamedDoc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<NamedDoc, D::Error> {
+        d.deserialize_any(NamedVisitor)
+    }
+}
+
+#[derive(Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialDoc {
+    #[serde(default = "d_white", deserialize_with = "colour")]
+    pub color: [f32; 3],
+    #[serde(default = "d_ambi", deserialize_with = "unit")]
+    pub ambi: f32,
+    #[serde(default = "d_diff", deserialize_with = "unit")]
+    pub diff: f32,
+    #[serde(default, deserialize_with = "unit")]
+    pub spec: f32,
+    #[serde(default, deserialize_with = "unit")]
+    pub shine: f32,
+    #[serde(default, deserialize_with = "unit")]
+    pub alpha: f32,
+    #[serde(default = "d_n", deserialize_with = "index")]
+    pub n: f32,
+}
+
+fn d_white() -> [f32; 3] {
+    [1.0; 3]
+}
+fn d_ambi() -> f32 {
+    0.1
+}
+fn d_diff() -> f32 {
+    0.9
+}
+fn d_n() -> f32 {
+    1.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightDoc {
+    pub at: [Num; 3],
+    #[serde(default = "d_white", deserialize_with = "colour")]
+    pub color: [f32; 3],
+    #[serde(default = "d_intensity", deserialize_with = "non_negative")]
+    pub intensity: f32,
+}
+
+fn d_intensity() -> f32 {
+    1.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectDoc {
+    pub shape: Spanned<String>,
+    pub material: Option<Spanned<MaterialRef>>,
+    pub scale: Option<Spanned<Scale>>,
+    pub rotate: Option<[Num; 3]>,
+    pub translate: Option<[Num; 3]>,
+}
+
+/// `material = "name"` or an inline table.
+pub enum MaterialRef {
+    Named(String),
+    Inline(Box<MaterialDoc>),
+}
+
+struct MaterialRefVisitor;
+
+impl<'de> Visitor<'de> for MaterialRefVisitor {
+    type Value = MaterialRef;
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a material name or an inline material table")
+    }
+    fn visit_str<E: de::Error>(self, v: &str) -> Result<MaterialRef, E> {
+        Ok(MaterialRef::Named(v.to_owned()))
+    }
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<MaterialRef, A::Error> {
+        MaterialDoc::deserialize(de::value::MapAccessDeserializer::new(map)).map(|m| MaterialRef::Inline(Box::new(m)))
+    }
+}
+
+impl<'de> Deserialize<'de> for MaterialRef {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<MaterialRef, D::Error> {
+        d.deserialize_any(MaterialRefVisitor)
+    }
+}
+
+/// `scale = 2` or `scale = [sx, sy, sz]`; no factor may be zero.
+pub struct Scale(pub [f32; 3]);
+
+struct ScaleVisitor;
+
+impl ScaleVisitor {
+    fn check<E: de::Error>(s: [f32; 3]) -> Result<Scale, E> {
+        if s.iter().any(|x| x.abs() < 1e-6) {
+            Err(E::custom("a scale factor of zero flattens the object; use a non-zero scale"))
+        } else {
+            Ok(Scale(s))
+        }
+    }
+}
+
+impl<'de> Visitor<'de> for ScaleVisitor {
+    type Value = Scale;
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a number or [sx, sy, sz]")
+    }
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Scale, E> {
+        let Num(x) = NumVisitor.visit_f64(v)?;
+        Self::check([x; 3])
+    }
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Scale, E> {
+        Self::check([v as f32; 3])
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Scale, A::Error> {
+        let [x, y, z] = <[Num; 3]>::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
+        Self::check([x.0, y.0, z.0])
+    }
+}
+
+impl<'de> Deserialize<'de> for Scale {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Scale, D::Error> {
+        d.deserialize_any(ScaleVisitor)
+    }
+}
