@@ -8,3 +8,6 @@ mod error;
 
 pub use build::{Loaded, load_model, load_scene};
 pub use error::{LoadError, LoadErrorKind};
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,169 @@
+//! Unit tests of scene and model loading: what loads, and how each kind of mistake is reported.
+
+use lancer_core::{Material, PointLight};
+use lancer_shading::Registry;
+use lancer_shapes::Shape;
+
+use crate::{LoadErrorKind, load_model, load_scene};
+
+const CAMERA: &str = "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n";
+
+fn err(src: &str) -> crate::LoadError {
+    match load_scene(src, "s.toml", &Registry::with_builtins()) {
+        Ok(_) => panic!("expected an error for:\n{src}"),
+        Err(e) => e,
+    }
+}
+
+/// The (line, column) of the first occurrence of `needle` in `src`.
+fn pos(src: &str, needle: &str) -> (usize, usize) {
+    let at = src.find(needle).unwrap();
+    (src[..at].matches('\n').count() + 1, at - src[..at].rfind('\n').map_or(0, |i| i + 1) + 1)
+}
+
+#[test]
+fn a_full_scene_loads_into_the_world() {
+    let src = format!(
+        "{CAMERA}fov = 30\n[image]\nwidth = 32\nheight = 16\nsamples = 4\nbackground = [0.1, 0.2, 0.3]\n\
+         [materials.red]\ncolor = [1, 0, 0]\nspec = 0.5\nshine = 0.9\n\
+         [[lights]]\nat = [1, 2, 3]\nintensity = 0.5\n\
+         [[objects]]\nshape = \"sphere\"\nmaterial = \"red\"\nscale = [1, 2, 3]\nrotate = [0, 90, 0]\ntranslate = [1, 0, 0]\n\
+         [[objects]]\nshape = \"plane\"\nmaterial = {{ color = [0, 1, 0], ambi = 0 }}\n\
+         [[objects]]\nshape = \"cube\"\n"
+    );
+    let l = load_scene(&src, "s.toml", &Registry::with_builtins()).unwrap();
+    let s = &l.scene;
+    assert_eq!((s.image.width, s.image.height, s.image.samples), (32, 16, 4));
+    assert_eq!(s.world.query::<&Shape>().iter().count(), 3);
+    assert_eq!(s.world.query::<&Material>().iter().count(), 2, "one named, one inline");
+    let lights: Vec<PointLight> = s.world.query::<&PointLight>().iter().copied().collect();
+    assert_eq!(lights, [PointLight { at: glam::Vec3::new(1.0, 2.0, 3.0), color: glam::Vec3::ONE, intensity: 0.5 }]);
+    // No [model]: the handout's five terms in order, hard shadows, depth 5.
+    let names: Vec<&str> = l.pipeline.terms.iter().map(|t| t.name.as_str()).collect();
+    assert_eq!(names, ["ambient", "diffuse", "specular", "mirror", "refraction"]);
+    assert_eq!((l.pipeline.shadows.name.as_str(), l.pipeline.max_depth), ("hard", 5));
+}
+
+#[test]
+fn rotation_is_x_then_y_then_z_and_right_handed() {
+    let src = format!("{CAMERA}[[objects]]\nshape = \"cube\"\nscale = [2, 1, 1]\nrotate = [90, 90, 0]\ntranslate = [0, 0, 5]\n");
+    let l = load_scene(&src, "s.toml", &Registry::with_builtins()).unwrap();
+    let t = *l.scene.world.query::<&lancer_core::Transform>().iter().next().unwrap();
+    let m = t.world_from_object;
+    // Object +x (scaled by 2): about x it stays, then about y (+90°) +x goes to -z.
+    assert!((m.transform_vector3(glam::Vec3::X) - glam::Vec3::new(0.0, 0.0, -2.0)).length() < 1e-5);
+    // Object +y: about x (+90°) goes to +z, then about y to +x.
+    assert!((m.transform_vector3(glam::Vec3::Y) - glam::Vec3::X).length() < 1e-5);
+    assert!((m.transform_point3(glam::Vec3::ZERO) - glam::Vec3::new(0.0, 0.0, 5.0)).length() < 1e-6);
+}
+
+#[test]
+fn model_tables_variants_and_parameters() {
+    let src = format!(
+        "{CAMERA}[model]\nmax_depth = 2\nshadows = {{ model = \"transmissive\", tint = true }}\n\
+         terms = [\"ambient\", {{ term = \"specular\", variant = \"phong\" }}]\n"
+    );
+    let l = load_scene(&src, "s.toml", &Registry::with_builtins()).unwrap();
+    let names: Vec<(&str, &str)> = l.pipeline.terms.iter().map(|t| (t.name.as_str(), t.variant.as_str())).collect();
+    assert_eq!(names, [("ambient", "seed"), ("specular", "phong")]);
+    assert_eq!((l.pipeline.shadows.name.as_str(), l.pipeline.max_depth), ("transmissive", 2));
+    let m = load_model("max_depth = 0\nterms = [\"diffuse\"]\n", "m.toml", &Registry::with_builtins()).unwrap();
+    assert_eq!((m.terms.len(), m.max_depth), (1, 0));
+}
+
+#[test]
+fn unknown_key_names_file_line_column_and_the_keys_expected() {
+    let src = format!("{CAMERA}[[objects]]\nshape = \"sphere\"\ncolour = [1, 0, 0]\n");
+    let e = err(&src);
+    assert_eq!((e.file.as_str(), e.line, e.column), ("s.toml", 6, 1));
+    let msg = e.to_string();
+    assert!(msg.starts_with("s.toml:6:1: unknown field `colour`, expected one of `shape`, `material`"), "{msg}");
+}
+
+#[test]
+fn non_finite_and_out_of_range_numbers_are_refused_where_they_stand() {
+    let src = format!("{CAMERA}[[lights]]\nat = [1, inf, 0]\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "inf"));
+    assert!(e.to_string().contains("expected a finite number, found inf"), "{e}");
+
+    let src = format!("{CAMERA}[materials.m]\nshine = 1.5\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "1.5"));
+    assert!(e.to_string().contains("expected a number in [0, 1], found 1.5"), "{e}");
+
+    let src = format!("{CAMERA}[materials.m]\nn = nan\n");
+    assert!(err(&src).to_string().contains("expected a finite number, found NaN"));
+
+    let src = format!("{CAMERA}[image]\nwidth = 0\n");
+    assert!(err(&src).to_string().contains("expected a whole number in [1, 16384], found 0"));
+
+    let src = format!("{CAMERA}[[objects]]\nshape = \"cube\"\nscale = [1, 0, 1]\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "[1, 0, 1]"));
+    assert!(e.to_string().contains("scale factor of zero"));
+}
+
+#[test]
+fn unknown_names_point_at_the_name_and_suggest_the_nearest() {
+    let src = format!("{CAMERA}[materials.glass]\nalpha = 1\n[[objects]]\nshape = \"sphere\"\nmaterial = \"glas\"\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "\"glas\""));
+    assert_eq!(
+        e.kind,
+        LoadErrorKind::UnknownMaterial { name: "glas".into(), nearest: Some("glass".into()), known: vec!["glass".into()] }
+    );
+
+    let src = format!("{CAMERA}[[objects]]\nshape = \"sphre\"\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "\"sphre\""));
+    assert!(e.to_string().contains("unknown shape `sphre` (did you mean `sphere`?); known shapes: sphere, cube, plane"));
+
+    let src = format!("{CAMERA}[model]\nterms = [\"ambient\", \"difuse\"]\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "\"difuse\""));
+    assert!(e.to_string().contains("unknown term `difuse` (did you mean `diffuse`?); known terms: ambient, diffuse"), "{e}");
+
+    let src = format!("{CAMERA}[model]\nshadows = \"sofft\"\n");
+    assert!(err(&src).to_string().contains("unknown shadow model `sofft`"));
+
+    let src = format!("{CAMERA}[model]\nterms = [{{ term = \"specular\", variant = \"blin\" }}]\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "\"blin\""));
+    assert!(e.to_string().contains("term `specular` has no variant `blin`"), "{e}");
+}
+
+#[test]
+fn bad_parameters_point_at_the_parameter() {
+    let src = format!("{CAMERA}[model]\nshadows = {{ model = \"transmissive\", tnit = true }}\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "tnit"));
+    assert!(e.to_string().contains("`transmissive` has no parameter `tnit` (did you mean `tint`?)"), "{e}");
+
+    let src = format!("{CAMERA}[model]\nshadows = {{ model = \"transmissive\", tint = 3 }}\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "3 }"));
+    assert!(e.to_string().contains("expected a boolean, found a number"), "{e}");
+
+    let src = format!("{CAMERA}[model]\nterms = [\"ambient\", \"ambient\"]\n");
+    assert!(err(&src).to_string().contains("term `ambient` appears twice"));
+
+    let src = format!("{CAMERA}[model]\nterms = [{{ variant = \"phong\" }}]\n");
+    assert!(err(&src).to_string().contains("missing the name"));
+}
+
+#[test]
+fn bad_camera_and_bad_syntax() {
+    let e = err("[camera]\nfrom = [0, 0, 0]\nto = [0, 0, 0]\n");
+    assert_eq!(e.line, 1);
+    assert!(e.to_string().contains("bad camera: `from` and `to` must be different points"));
+    let e = err("[camera\nfrom = 1\n");
+    assert_eq!(e.line, 1);
+    let e = err("[image]\nwidth = 10\n");
+    assert!(e.to_string().contains("missing field `camera`"), "{e}");
+    let e = match load_model("terms = [\"ambient\"]\ncolor = 1\n", "m.toml", &Registry::with_builtins()) {
+        Err(e) => e,
+        Ok(_) => panic!("model files have only model keys"),
+    };
+    assert_eq!((e.file.as_str(), e.line, e.column), ("m.toml", 2, 1));
+}
