@@ -17,6 +17,8 @@ pub const NO_HIT: u32 = u32::MAX;
 pub struct Rays {
     /// Ray origins.
     pub origin: Vec<Vec3>,
+    /// An object index the ray ignores (the convex object it leaves), or `u32::MAX`.
+    pub skip: Vec<u32>,
     /// Unit directions.
     pub dir: Vec<Vec3>,
     /// Throughput: what this ray's colour is multiplied by before it reaches its pixel.
@@ -46,6 +48,7 @@ impl Rays {
     pub fn with_capacity(n: usize) -> Rays {
         Rays {
             origin: Vec::with_capacity(n),
+            skip: Vec::with_capacity(n),
             dir: Vec::with_capacity(n),
             weight: Vec::with_capacity(n),
             pixel: Vec::with_capacity(n),
@@ -56,8 +59,10 @@ impl Rays {
 
     /// Appends one lane.
     #[inline]
-    pub fn push(&mut self, origin: Vec3, dir: Vec3, weight: Vec3, pixel: u32, depth: u8, credit: u16) {
+    #[allow(clippy::too_many_arguments)]
+    pub fn push(&mut self, origin: Vec3, skip: u32, dir: Vec3, weight: Vec3, pixel: u32, depth: u8, credit: u16) {
         self.origin.push(origin);
+        self.skip.push(skip);
         self.dir.push(dir);
         self.weight.push(weight);
         self.pixel.push(pixel);

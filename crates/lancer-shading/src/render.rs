@@ -6,7 +6,7 @@ use glam::Vec3;
 use lancer_core::frame::BACKGROUND;
 use lancer_core::rays::{CHUNK_LANES, CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
 use lancer_core::{Camera, Frame, ImageSettings, Layer, Scene};
-use lancer_shapes::offset_origin;
+use lancer_shapes::{NO_SKIP, Origin};
 use rayon::prelude::*;
 
 use crate::{Chunk, Pipeline, PrepareError, Prepared, ShadeContext, ShadowContext, TermOutput, prepare};
@@ -132,7 +132,7 @@ fn camera_system(camera: &Camera, image: &ImageSettings, tile: Tile) -> Rays {
                 let (ox, oy) = sample_offset(s, spp);
                 let (px, py) = ((tile.x0 + i) as f32 + ox, (tile.y0 + j) as f32 + oy);
                 let dir = camera.direction(px, py, image.width, image.height);
-                rays.push(camera.origin, dir, weight, j * tile.w + i, 0, CREDIT_OWN);
+                rays.push(camera.origin, NO_SKIP, dir, weight, j * tile.w + i, 0, CREDIT_OWN);
             }
         }
     }
@@ -152,6 +152,7 @@ fn spawn_chunks(world: &mut hecs::World, mut rays: Rays, lights: usize) {
 fn split_off(r: &mut Rays, at: usize) -> Rays {
     Rays {
         origin: r.origin.split_off(at),
+        skip: r.skip.split_off(at),
         dir: r.dir.split_off(at),
         weight: r.weight.split_off(at),
         pixel: r.pixel.split_off(at),
@@ -164,7 +165,8 @@ fn split_off(r: &mut Rays, at: usize) -> Rays {
 fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
     for (rays, hits) in world.query_mut::<(&Rays, &mut Hits)>() {
         for lane in 0..rays.len() {
-            if let Some(h) = ctx.geometry.closest_hit(rays.origin[lane], rays.dir[lane], 0.0, f32::INFINITY) {
+            let from = Origin { point: rays.origin[lane], skip: rays.skip[lane] };
+            if let Some(h) = ctx.geometry.closest_hit(from, rays.dir[lane], 0.0, f32::INFINITY) {
                 hits.t[lane] = h.t;
                 hits.point[lane] = rays.origin[lane] + h.t * rays.dir[lane];
                 hits.normal[lane] = h.normal;
@@ -192,8 +194,8 @@ fn visibility_system(world: &mut hecs::World, ctx: &ShadeContext<'_>, shadow_ctx
                 if n.dot(w) <= 0.0 {
                     continue;
                 }
-                let from = offset_origin(p, n);
-                let to_light = light.at - from;
+                let from = ctx.geometry.leave(hits.object[lane], p, n);
+                let to_light = light.at - from.point;
                 let dist = to_light.length();
                 let Some(dir) = to_light.try_normalize() else { continue };
                 samples.incoming[slot] = light.radiance() * shadows.transmittance(shadow_ctx, from, dir, dist);

@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use lancer_core::Material;
-use lancer_shapes::Geometry;
+use lancer_shapes::{Geometry, Origin};
 
 /// Scene data a shadow model may use.
 pub struct ShadowContext<'a> {
@@ -22,7 +22,7 @@ impl ShadowContext<'_> {
 
 /// A shadow model: the fraction (per RGB channel) of a light's colour that reaches a point.
 pub trait ShadowModel: Send + Sync {
-    /// Transmittance from `from` (already offset off the surface) along the unit direction `dir`
-    /// to the light at distance `dist`.
-    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Vec3, dir: Vec3, dist: f32) -> Vec3;
+    /// Transmittance from `from` (see [`Geometry::leave`]) along the unit direction `dir` to the
+    /// light at distance `dist`.
+    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, dir: Vec3, dist: f32) -> Vec3;
 }

@@ -3,7 +3,7 @@
 use glam::Vec3;
 use lancer_core::rays::{CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
 use lancer_core::{Material, PointLight};
-use lancer_shapes::Geometry;
+use lancer_shapes::{Geometry, Origin};
 
 /// Read-only scene data every term may use.
 pub struct ShadeContext<'a> {
@@ -79,16 +79,16 @@ impl TermOutput<'_> {
         self.rays.depth[lane] < self.max_depth
     }
 
-    /// Queues a child ray of `lane` whose colour counts `factor` times in the parent's. Does
-    /// nothing past the depth limit or for a zero factor.
+    /// Queues a child ray of `lane` from `origin` (see [`Geometry::leave`]) whose colour counts
+    /// `factor` times in the parent's. Does nothing past the depth limit or for a zero factor.
     #[inline]
-    pub fn spawn(&mut self, lane: usize, origin: Vec3, dir: Vec3, factor: Vec3) {
+    pub fn spawn(&mut self, lane: usize, origin: Origin, dir: Vec3, factor: Vec3) {
         let weight = self.rays.weight[lane] * factor;
         if !self.can_spawn(lane) || weight == Vec3::ZERO {
             return;
         }
         let credit = self.credit(lane);
-        self.next.push(origin, dir, weight, self.rays.pixel[lane], self.rays.depth[lane] + 1, credit);
+        self.next.push(origin.point, origin.skip, dir, weight, self.rays.pixel[lane], self.rays.depth[lane] + 1, credit);
     }
 }
 

@@ -84,6 +84,25 @@ pub struct Geometry {
     unbounded: Vec<u32>,
 }
 
+/// `Origin::skip` when a ray may hit every object.
+pub const NO_SKIP: u32 = u32::MAX;
+
+/// Where a secondary ray starts, and the object it must ignore (the one it leaves, when convex).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Origin {
+    /// The start point.
+    pub point: Vec3,
+    /// An object index to ignore, or [`NO_SKIP`].
+    pub skip: u32,
+}
+
+impl Origin {
+    /// A ray from `point` that may hit anything (camera rays).
+    pub fn free(point: Vec3) -> Origin {
+        Origin { point, skip: NO_SKIP }
+    }
+}
+
 /// How far a secondary ray's origin moves off the surface: relative to the point's magnitude so
 /// that it stays above f32 rounding of the hit point wherever the object is.
 const OFFSET_REL: f32 = 1e-4;
@@ -112,6 +131,21 @@ impl Geometry {
         Geometry { bvh: Bvh::build(&bounds), objects, bounded, unbounded }
     }
 
+    /// Where a ray leaving `object` at `p`, towards the side the unit normal `n` points to, starts.
+    ///
+    /// A convex object cannot be met again, so the ray ignores it and starts a hair *behind* the
+    /// surface: an object touching it there (a glass cube resting on a floor) is still found,
+    /// which a start in front of the surface would step over. A non-convex object is not
+    /// ignored; the ray starts a hair in front of the surface instead.
+    #[inline]
+    pub fn leave(&self, object: u32, p: Vec3, n: Vec3) -> Origin {
+        if self.objects[object as usize].shape.is_convex() {
+            Origin { point: offset_origin(p, -n), skip: object }
+        } else {
+            Origin { point: offset_origin(p, n), skip: NO_SKIP }
+        }
+    }
+
     fn hit_with(&self, i: u32, o: Vec3, d: Vec3, tmin: f32, tmax: f32, best: &mut Option<Hit>) -> f32 {
         match self.objects[i as usize].intersect(o, d, tmin, tmax) {
             Some((t, normal)) => {
@@ -124,22 +158,28 @@ impl Geometry {
 
     /// The closest hit of `o + t d` with `tmin < t < tmax`. The BVH build and traversal order are
     /// deterministic, so the same ray always gets the same hit.
-    pub fn closest_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+    pub fn closest_hit(&self, from: Origin, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        let (o, skip) = (from.point, from.skip);
         let mut best = None;
         let mut tmax = tmax;
         for &i in &self.unbounded {
-            tmax = self.hit_with(i, o, d, tmin, tmax, &mut best);
+            if i != skip {
+                tmax = self.hit_with(i, o, d, tmin, tmax, &mut best);
+            }
         }
-        self.bvh.traverse(o, d, tmax, |item, tmax| self.hit_with(self.bounded[item as usize], o, d, tmin, tmax, &mut best));
+        self.bvh.traverse(o, d, tmax, |item, tmax| {
+            let i = self.bounded[item as usize];
+            if i == skip { tmax } else { self.hit_with(i, o, d, tmin, tmax, &mut best) }
+        });
         best
     }
 
     /// The closest hit by testing every object, for checking the BVH.
-    pub fn closest_hit_brute_force(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+    pub fn closest_hit_brute_force(&self, from: Origin, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let mut best = None;
         let mut tmax = tmax;
-        for i in 0..self.objects.len() as u32 {
-            tmax = self.hit_with(i, o, d, tmin, tmax, &mut best);
+        for i in (0..self.objects.len() as u32).filter(|&i| i != from.skip) {
+            tmax = self.hit_with(i, from.point, d, tmin, tmax, &mut best);
         }
         best
     }
@@ -178,13 +218,13 @@ mod tests {
         let mut runner =
             TestRunner::new_with_rng(Config { cases: 200, ..Config::default() }, TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]));
         let obj = (0u8..8, prop::array::uniform3(-10f32..10.0), 0.1f32..2.0, prop::array::uniform3(-3f32..3.0));
-        let ray = (prop::array::uniform3(-12f32..12.0), prop::array::uniform3(-1f32..1.0));
+        let ray = (prop::array::uniform3(-12f32..12.0), prop::array::uniform3(-1f32..1.0), 0u32..100);
         runner
             .run(&(prop::collection::vec(obj, 1..60), prop::collection::vec(ray, 50)), |(spec, rays)| {
                 let g = random_scene(&spec);
-                for (o, d) in rays {
+                for (o, d, skip) in rays {
                     let Some(d) = Vec3::from(d).try_normalize() else { continue };
-                    let o = Vec3::from(o);
+                    let o = Origin { point: Vec3::from(o), skip: skip % 64 };
                     let a = g.closest_hit(o, d, 1e-4, f32::INFINITY);
                     let b = g.closest_hit_brute_force(o, d, 1e-4, f32::INFINITY);
                     prop_assert_eq!(a.map(|h| h.t), b.map(|h| h.t));
@@ -198,10 +238,24 @@ mod tests {
     fn scaled_sphere_exit_and_normals_are_in_world_space() {
         let m = Affine3A::from_scale_rotation_translation(Vec3::new(2.0, 1.0, 1.0), Quat::IDENTITY, Vec3::new(0.0, 0.0, 5.0));
         let g = Geometry::new(vec![Object::new(Shape::Sphere, m, 0).unwrap()]);
-        let h = g.closest_hit(Vec3::new(-10.0, 0.0, 5.0), Vec3::X, 0.0, f32::INFINITY).unwrap();
+        let h = g.closest_hit(Origin::free(Vec3::new(-10.0, 0.0, 5.0)), Vec3::X, 0.0, f32::INFINITY).unwrap();
         assert!((h.t - 8.0).abs() < 1e-5 && (h.normal + Vec3::X).length() < 1e-6 && h.front);
         let e = g.exit(0, Vec3::new(-1.9, 0.0, 5.0), Vec3::X).unwrap();
         assert!((e.t - 3.9).abs() < 1e-5 && (e.normal - Vec3::X).length() < 1e-6);
+    }
+
+    #[test]
+    fn regression_ray_leaving_a_cube_resting_on_a_plane_hits_the_plane() {
+        // A unit cube sitting on the floor: its bottom face and the floor are the same plane.
+        let floor = Object::new(Shape::Plane, Affine3A::IDENTITY, 0).unwrap();
+        let cube = Object::new(Shape::Cube, Affine3A::from_translation(Vec3::Y), 0).unwrap();
+        let g = Geometry::new(vec![floor, cube]);
+        let down = Vec3::new(0.3, -1.0, 0.2).normalize();
+        let p = Vec3::new(0.1, 0.0, -0.4);
+        let from = g.leave(1, p, -Vec3::Y);
+        let hit = g.closest_hit(from, down, 0.0, f32::INFINITY).expect("the floor is right there");
+        assert_eq!(hit.object, 0);
+        assert!(hit.t < 1e-3);
     }
 
     #[test]

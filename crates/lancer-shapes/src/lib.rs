@@ -11,5 +11,5 @@ mod shape;
 
 pub use aabb::Aabb;
 pub use bvh::Bvh;
-pub use geometry::{Geometry, Hit, Object, offset_origin};
+pub use geometry::{Geometry, Hit, NO_SKIP, Object, Origin, offset_origin};
 pub use shape::Shape;

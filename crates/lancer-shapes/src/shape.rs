@@ -38,6 +38,14 @@ impl Shape {
         }
     }
 
+    /// Whether the shape is convex (a plane counts): a ray leaving its surface never meets it
+    /// again, so secondary rays may ignore it.
+    pub fn is_convex(self) -> bool {
+        match self {
+            Shape::Sphere | Shape::Cube | Shape::Plane => true,
+        }
+    }
+
     /// Object-space bounds; `None` for unbounded shapes.
     pub fn bounds(self) -> Option<Aabb> {
         match self {

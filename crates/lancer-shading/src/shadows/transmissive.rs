@@ -11,7 +11,7 @@
 //! ```
 
 use glam::Vec3;
-use lancer_shapes::offset_origin;
+use lancer_shapes::{Origin, offset_origin};
 
 use crate::{ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 
@@ -32,7 +32,7 @@ struct Transmissive {
 }
 
 impl ShadowModel for Transmissive {
-    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Vec3, dir: Vec3, dist: f32) -> Vec3 {
+    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, dir: Vec3, dist: f32) -> Vec3 {
         let mut light = Vec3::ONE;
         let (mut from, mut left) = (from, dist);
         for _ in 0..MAX_CROSSINGS {
@@ -42,22 +42,19 @@ impl ShadowModel for Transmissive {
                 return Vec3::ZERO;
             }
             light *= if self.tint { m.alpha * m.color } else { Vec3::splat(m.alpha) };
-            let p = from + hit.t * dir;
+            let p = from.point + hit.t * dir;
             // Count each object once: jump from its entry to where the ray leaves it.
             let past = if hit.front {
                 let inside = offset_origin(p, -hit.normal);
                 match ctx.geometry.exit(hit.object, inside, dir) {
-                    Some(exit) => {
-                        let q = inside + exit.t * dir;
-                        offset_origin(q, exit.normal)
-                    }
+                    Some(exit) => ctx.geometry.leave(hit.object, inside + exit.t * dir, exit.normal),
                     // It never ends (a plane's half-space): the light is inside it.
                     None => return light,
                 }
             } else {
-                offset_origin(p, hit.normal)
+                ctx.geometry.leave(hit.object, p, hit.normal)
             };
-            let moved = (past - from).dot(dir);
+            let moved = (past.point - from.point).dot(dir);
             if moved >= left {
                 return light;
             }

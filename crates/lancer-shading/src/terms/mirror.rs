@@ -12,7 +12,6 @@
 
 use glam::Vec3;
 use lancer_core::optics::reflect;
-use lancer_shapes::offset_origin;
 
 use crate::term::facing;
 use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
@@ -37,7 +36,8 @@ impl Term for Mirror {
             }
             let (p, n) = facing(&chunk, lane);
             let u_r = reflect(chunk.rays.dir[lane], n);
-            out.spawn(lane, offset_origin(p, n), u_r, Vec3::splat(m.spec));
+            let from = ctx.geometry.leave(chunk.hits.object[lane], p, n);
+            out.spawn(lane, from, u_r, Vec3::splat(m.spec));
         }
     }
 }

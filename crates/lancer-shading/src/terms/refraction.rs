@@ -17,7 +17,7 @@
 
 use glam::Vec3;
 use lancer_core::optics::{reflect, vct_transmis};
-use lancer_shapes::offset_origin;
+use lancer_shapes::{Origin, offset_origin};
 
 use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
 
@@ -58,7 +58,7 @@ pub fn through(
     u: Vec3,
     n: f32,
     front: bool,
-) -> Option<(Vec3, Vec3)> {
+) -> Option<(Origin, Vec3)> {
     // (position on the surface, direction inside, outward normal there)
     let (mut pos, mut dir, mut normal) = if front {
         let u_t = vct_transmis(u, -n_out, 1.0 / n)?;
@@ -70,7 +70,7 @@ pub fn through(
     };
     for _ in 0..=ctx.max_depth {
         match vct_transmis(dir, normal, n) {
-            Some(v_t) => return Some((offset_origin(pos, normal), v_t)),
+            Some(v_t) => return Some((ctx.geometry.leave(object, pos, normal), v_t)),
             None => {
                 dir = reflect(dir, normal);
                 let inside = offset_origin(pos, -normal);
