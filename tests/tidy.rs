@@ -1,5 +1,5 @@
 //! Tidy checks over the source tree: every Rust file says what it is on its first line, no
-//! `todo!()` or `unimplemented!()` is left, and every built-in term is used by some scene.
+//! placeholder macro (todo, unimplemented) is left, and every built-in term is used by some scene.
 
 use std::path::{Path, PathBuf};
 

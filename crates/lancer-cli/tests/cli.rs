@@ -1,0 +1,122 @@
+//! The `lancer` binary as a user runs it: the default render, per-term images, thread-count
+//! independence, `lancer terms`, and bad input (clear error, non-zero exit, no output file).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lancer(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lancer")).args(args).current_dir(dir).output().expect("lancer runs")
+}
+
+fn scene(name: &str) -> String {
+    let p: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "scenes", name].iter().collect();
+    p.canonicalize().unwrap().display().to_string()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn files(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn no_arguments_renders_the_embedded_showcase_to_render_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = lancer(dir.path(), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(dir.path().join("render.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (640, 360));
+    assert!(stderr(&o).contains("rendered scenes/showcase.toml (embedded default)"));
+    assert_eq!(files(dir.path()), ["render.png"], "no temporary file is left behind");
+}
+
+#[test]
+fn aov_writes_every_term_and_beauty_and_the_exrs_sum_to_beauty() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = lancer(dir.path(), &["render", &scene("glass.toml"), "--width", "64", "-o", "out.exr", "--aov", "aov", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.stderr.is_empty(), "--quiet prints nothing: {}", stderr(&o));
+    let names = ["ambient", "background", "beauty", "diffuse", "mirror", "refraction", "specular"];
+    let want: Vec<String> = names.iter().flat_map(|n| [format!("{n}.exr"), format!("{n}.png")]).collect();
+    assert_eq!(files(&dir.path().join("aov")), want);
+    let read = |p: &str| image::open(dir.path().join(p)).unwrap().into_rgb32f();
+    let beauty = read("aov/beauty.exr");
+    assert_eq!((beauty.width(), beauty.height()), (64, 36));
+    assert_eq!(read("out.exr").as_raw(), beauty.as_raw(), "-o out.exr is the beauty image");
+    let layers: Vec<_> = names.iter().filter(|n| **n != "beauty").map(|n| read(&format!("aov/{n}.exr"))).collect();
+    for (i, b) in beauty.as_raw().iter().enumerate() {
+        let sum: f32 = layers.iter().map(|l| l.as_raw()[i]).sum();
+        assert!((sum - b).abs() <= 1e-6 * b.abs().max(1.0), "channel {i}: terms sum to {sum}, beauty {b}");
+    }
+}
+
+#[test]
+fn one_and_two_threads_write_identical_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    for t in ["1", "2"] {
+        let o = lancer(dir.path(), &["render", &scene("showcase.toml"), "--width", "160", "--threads", t, "-o", &format!("t{t}.png"), "--aov", &format!("aov{t}"), "-q"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let read = |p: &str| std::fs::read(dir.path().join(p)).unwrap();
+    assert_eq!(read("t1.png"), read("t2.png"));
+    for f in files(&dir.path().join("aov1")) {
+        assert_eq!(read(&format!("aov1/{f}")), read(&format!("aov2/{f}")), "{f}");
+    }
+}
+
+#[test]
+fn terms_lists_every_term_and_shadow_model() {
+    let o = lancer(Path::new("."), &["terms"]);
+    assert!(o.status.success());
+    let out = String::from_utf8(o.stdout).unwrap();
+    for name in ["ambient", "diffuse", "specular", "mirror", "refraction", "none:", "hard:", "transmissive:", "tint = false"] {
+        assert!(out.contains(name), "`lancer terms` does not mention {name}:\n{out}");
+    }
+}
+
+#[test]
+fn a_bad_scene_is_a_located_error_with_no_output_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n[model]\nterms = [\"ambient\", \"specullar\"]\n").unwrap();
+    let o = lancer(dir.path(), &["render", "bad.toml", "--aov", "aov"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.starts_with("error: bad.toml:5:21: unknown term `specullar` (did you mean `specular`?)"), "{err}");
+    assert!(err.contains("^^^^^^^^^^^"), "the offending text is underlined: {err}");
+    assert!(!err.contains("panicked"));
+    assert_eq!(files(dir.path()), ["bad.toml"], "neither render.png nor the AOV directory appears");
+}
+
+#[test]
+fn bad_files_and_flags_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = lancer(dir.path(), &["render", "missing.toml"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("reading scene missing.toml"), "{}", stderr(&o));
+
+    let o = lancer(dir.path(), &["render", "-o", "out.jpg"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("must end in .png (sRGB 8-bit) or .exr (linear float)"));
+
+    let o = lancer(dir.path(), &["render", "--threads", "0"]);
+    assert_eq!(o.status.code(), Some(2), "clap rejects flags with its usage exit code");
+    assert!(stderr(&o).contains("--threads"));
+
+    let o = lancer(dir.path(), &["render", "--model", "nope.toml"]);
+    assert!(stderr(&o).contains("reading model nope.toml"));
+    assert_eq!(files(dir.path()), Vec::<String>::new());
+}
+
+#[test]
+fn a_model_file_replaces_the_scenes_model() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("flat.toml"), "max_depth = 0\nshadows = \"none\"\nterms = [\"ambient\"]\n").unwrap();
+    let o = lancer(dir.path(), &["render", &scene("showcase.toml"), "--model", "flat.toml", "--width", "48", "--aov", "aov", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(files(&dir.path().join("aov")), ["ambient.exr", "ambient.png", "background.exr", "background.png", "beauty.exr", "beauty.png"]);
+}
