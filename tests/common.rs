@@ -21,7 +21,8 @@ pub fn load(src: &str) -> Loaded {
 pub fn load_file(path: &Path) -> Loaded {
     let path = root().join(path);
     let src = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
-    lancer_scene::load_scene(&src, &path.display().to_string(), &Registry::with_builtins()).unwrap_or_else(|e| panic!("{e}"))
+    lancer_scene::load_scene(&src, &path.display().to_string(), &Registry::with_builtins())
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Renders at `width` (height keeping the scene's aspect ratio) on `threads` threads.
@@ -34,7 +35,13 @@ pub fn render(loaded: &Loaded, width: Option<u32>, threads: usize) -> Frame {
     let prepared = lancer_shading::prepare(&loaded.scene).expect("scene prepares");
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
     pool.install(|| {
-        lancer_shading::render_prepared(&prepared, &loaded.scene.camera, &image, &loaded.pipeline, RenderOptions::default())
+        lancer_shading::render_prepared(
+            &prepared,
+            &loaded.scene.camera,
+            &image,
+            &loaded.pipeline,
+            RenderOptions::default(),
+        )
     })
 }
 

@@ -16,7 +16,11 @@ fn per_term_images_sum_to_beauty_exactly() {
             }
             assert_eq!(sum, *b, "{}: pixel {i}", path.display());
         }
-        assert!(frame.layers.iter().all(|l| l.pixels.iter().all(|p| p.is_finite())), "{}: a NaN or infinity", path.display());
+        assert!(
+            frame.layers.iter().all(|l| l.pixels.iter().all(|p| p.is_finite())),
+            "{}: a NaN or infinity",
+            path.display()
+        );
     }
 }
 

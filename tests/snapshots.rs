@@ -18,13 +18,26 @@ fn per_term_images_of_every_scene() {
 
         let lum = |p: &glam::Vec3| 0.2126 * p.x as f64 + 0.7152 * p.y as f64 + 0.0722 * p.z as f64;
         let total: f64 = beauty.iter().map(lum).sum();
-        let mut stats = format!("{}x{}\n{:<12} {:>26} {:>10} {:>8}\n", frame.width, frame.height, "image", "mean rgb", "max", "share");
-        for (name, px) in frame.layers.iter().map(|l| (l.name.as_str(), &l.pixels[..])).chain([("beauty", &beauty[..])]) {
+        let mut stats = format!(
+            "{}x{}\n{:<12} {:>26} {:>10} {:>8}\n",
+            frame.width, frame.height, "image", "mean rgb", "max", "share"
+        );
+        for (name, px) in frame.layers.iter().map(|l| (l.name.as_str(), &l.pixels[..])).chain([("beauty", &beauty[..])])
+        {
             let n = px.len() as f64;
-            let mean = px.iter().fold([0.0f64; 3], |m, p| [m[0] + p.x as f64 / n, m[1] + p.y as f64 / n, m[2] + p.z as f64 / n]);
+            let mean = px
+                .iter()
+                .fold([0.0f64; 3], |m, p| [m[0] + p.x as f64 / n, m[1] + p.y as f64 / n, m[2] + p.z as f64 / n]);
             let max = px.iter().map(|p| p.max_element()).fold(0.0f32, f32::max);
             let share = if total > 0.0 { px.iter().map(lum).sum::<f64>() / total } else { 0.0 };
-            let _ = writeln!(stats, "{name:<12} {:>8.5} {:>8.5} {:>8.5} {max:>10.5} {:>7.2}%", mean[0], mean[1], mean[2], 100.0 * share);
+            let _ = writeln!(
+                stats,
+                "{name:<12} {:>8.5} {:>8.5} {:>8.5} {max:>10.5} {:>7.2}%",
+                mean[0],
+                mean[1],
+                mean[2],
+                100.0 * share
+            );
             insta::assert_binary_snapshot!(&format!("{name}.png"), png(px));
         }
         insta::assert_snapshot!("stats", stats);

@@ -50,7 +50,11 @@ fn renders(args: &[String]) -> Result<()> {
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
-            "--width" => width = Some(it.next().context("--width needs a number")?.parse::<u32>().context("--width needs a number")?),
+            "--width" => {
+                width = Some(
+                    it.next().context("--width needs a number")?.parse::<u32>().context("--width needs a number")?,
+                )
+            }
             f if !f.starts_with('-') && filter.is_none() => filter = Some(f.to_owned()),
             other => bail!("unexpected argument `{other}`\n{USAGE}"),
         }

@@ -17,7 +17,11 @@ const DEFAULT_SCENE: &str = include_str!("../../../scenes/showcase.toml");
 const DEFAULT_SCENE_NAME: &str = "scenes/showcase.toml (embedded default)";
 
 #[derive(Parser)]
-#[command(name = "lancer", version, about = "Lancer: a Whitted ray tracer whose illumination model is a list of pluggable terms")]
+#[command(
+    name = "lancer",
+    version,
+    about = "Lancer: a Whitted ray tracer whose illumination model is a list of pluggable terms"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -97,7 +101,8 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     let loaded = lancer_scene::load_scene(&src, &name, registry).map_err(anyhow::Error::msg)?;
     let mut scene = loaded.scene;
     let pipeline = match &args.model {
-        Some(p) => lancer_scene::load_model(&read(p, "model")?, &p.display().to_string(), registry).map_err(anyhow::Error::msg)?,
+        Some(p) => lancer_scene::load_model(&read(p, "model")?, &p.display().to_string(), registry)
+            .map_err(anyhow::Error::msg)?,
         None => loaded.pipeline,
     };
     let img = &mut scene.image;
@@ -143,12 +148,17 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     }
     if !args.quiet {
         eprintln!(
-            "rendered {name} at {}x{} ({} spp, {} terms) in {:.3} s -> {}{}",
+            "rendered {name} at {}x{} ({} spp, {} terms) in {:.3} s: {:.2} M rays ({} camera, {} secondary, {} shadow), {:.1} M rays/s -> {}{}",
             frame.width,
             frame.height,
             scene.image.samples,
             pipeline.terms.len(),
             elapsed.as_secs_f64(),
+            frame.stats.total() as f64 / 1e6,
+            frame.stats.camera_rays,
+            frame.stats.secondary_rays,
+            frame.stats.shadow_rays,
+            frame.stats.total() as f64 / 1e6 / elapsed.as_secs_f64().max(1e-9),
             args.output.display(),
             args.aov.as_ref().map(|d| format!(" and {}/", d.display())).unwrap_or_default()
         );

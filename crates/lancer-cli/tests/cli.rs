@@ -18,7 +18,8 @@ fn stderr(o: &Output) -> String {
 }
 
 fn files(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut v: Vec<String> =
+        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     v.sort();
     v
 }
@@ -37,7 +38,8 @@ fn no_arguments_renders_the_embedded_showcase_to_render_png() {
 #[test]
 fn aov_writes_every_term_and_beauty_and_the_exrs_sum_to_beauty() {
     let dir = tempfile::tempdir().unwrap();
-    let o = lancer(dir.path(), &["render", &scene("glass.toml"), "--width", "64", "-o", "out.exr", "--aov", "aov", "-q"]);
+    let o =
+        lancer(dir.path(), &["render", &scene("glass.toml"), "--width", "64", "-o", "out.exr", "--aov", "aov", "-q"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(o.stderr.is_empty(), "--quiet prints nothing: {}", stderr(&o));
     let names = ["ambient", "background", "beauty", "diffuse", "mirror", "refraction", "specular"];
@@ -58,7 +60,22 @@ fn aov_writes_every_term_and_beauty_and_the_exrs_sum_to_beauty() {
 fn one_and_two_threads_write_identical_bytes() {
     let dir = tempfile::tempdir().unwrap();
     for t in ["1", "2"] {
-        let o = lancer(dir.path(), &["render", &scene("showcase.toml"), "--width", "160", "--threads", t, "-o", &format!("t{t}.png"), "--aov", &format!("aov{t}"), "-q"]);
+        let o = lancer(
+            dir.path(),
+            &[
+                "render",
+                &scene("showcase.toml"),
+                "--width",
+                "160",
+                "--threads",
+                t,
+                "-o",
+                &format!("t{t}.png"),
+                "--aov",
+                &format!("aov{t}"),
+                "-q",
+            ],
+        );
         assert!(o.status.success(), "{}", stderr(&o));
     }
     let read = |p: &str| std::fs::read(dir.path().join(p)).unwrap();
@@ -73,7 +90,9 @@ fn terms_lists_every_term_and_shadow_model() {
     let o = lancer(Path::new("."), &["terms"]);
     assert!(o.status.success());
     let out = String::from_utf8(o.stdout).unwrap();
-    for name in ["ambient", "diffuse", "specular", "mirror", "refraction", "none:", "hard:", "transmissive:", "tint = false"] {
+    for name in
+        ["ambient", "diffuse", "specular", "mirror", "refraction", "none:", "hard:", "transmissive:", "tint = false"]
+    {
         assert!(out.contains(name), "`lancer terms` does not mention {name}:\n{out}");
     }
 }
@@ -82,7 +101,11 @@ fn terms_lists_every_term_and_shadow_model() {
 fn a_bad_scene_is_a_located_error_with_no_output_file() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.toml");
-    std::fs::write(&bad, "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n[model]\nterms = [\"ambient\", \"specullar\"]\n").unwrap();
+    std::fs::write(
+        &bad,
+        "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n[model]\nterms = [\"ambient\", \"specullar\"]\n",
+    )
+    .unwrap();
     let o = lancer(dir.path(), &["render", "bad.toml", "--aov", "aov"]);
     assert_eq!(o.status.code(), Some(1));
     let err = stderr(&o);
@@ -116,7 +139,13 @@ fn bad_files_and_flags_are_clear_errors() {
 fn a_model_file_replaces_the_scenes_model() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("flat.toml"), "max_depth = 0\nshadows = \"none\"\nterms = [\"ambient\"]\n").unwrap();
-    let o = lancer(dir.path(), &["render", &scene("showcase.toml"), "--model", "flat.toml", "--width", "48", "--aov", "aov", "-q"]);
+    let o = lancer(
+        dir.path(),
+        &["render", &scene("showcase.toml"), "--model", "flat.toml", "--width", "48", "--aov", "aov", "-q"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(files(&dir.path().join("aov")), ["ambient.exr", "ambient.png", "background.exr", "background.png", "beauty.exr", "beauty.png"]);
+    assert_eq!(
+        files(&dir.path().join("aov")),
+        ["ambient.exr", "ambient.png", "background.exr", "background.png", "beauty.exr", "beauty.png"]
+    );
 }

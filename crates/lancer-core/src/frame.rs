@@ -15,6 +15,32 @@ pub struct Layer {
     pub pixels: Vec<Vec3>,
 }
 
+/// Ray counts of a render (the same for any thread count).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RenderStats {
+    /// Rays from the camera.
+    pub camera_rays: u64,
+    /// Child rays (mirror, refraction), traced from generation 1 on.
+    pub secondary_rays: u64,
+    /// Light visibility queries handed to the shadow model (one per hit and light in front).
+    pub shadow_rays: u64,
+}
+
+impl RenderStats {
+    /// Camera, secondary and shadow rays together.
+    pub fn total(&self) -> u64 {
+        self.camera_rays + self.secondary_rays + self.shadow_rays
+    }
+}
+
+impl std::ops::AddAssign for RenderStats {
+    fn add_assign(&mut self, o: RenderStats) {
+        self.camera_rays += o.camera_rays;
+        self.secondary_rays += o.secondary_rays;
+        self.shadow_rays += o.shadow_rays;
+    }
+}
+
 /// A rendered frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
@@ -24,6 +50,8 @@ pub struct Frame {
     pub height: u32,
     /// The terms' images in model order, then the background layer.
     pub layers: Vec<Layer>,
+    /// How many rays the render traced.
+    pub stats: RenderStats,
 }
 
 impl Frame {

@@ -12,7 +12,7 @@ pub mod rays;
 pub mod scene;
 
 pub use camera::Camera;
-pub use frame::{Frame, Layer};
+pub use frame::{Frame, Layer, RenderStats};
 pub use glam::Vec3;
 pub use material::{Material, PointLight};
 pub use scene::{ImageSettings, MaterialOf, Meta, Scene, Transform};

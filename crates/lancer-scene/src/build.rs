@@ -85,8 +85,10 @@ pub fn load_scene(src: &str, file: &str, registry: &Registry) -> Result<Loaded, 
         let [rx, ry, rz] = obj.rotate.map_or([0.0; 3], |r| r.map(|Num(d)| d.to_radians()));
         // Degrees about x, then y, then z; scale first, translate last.
         let rotation = Mat3::from_rotation_z(rz) * Mat3::from_rotation_y(ry) * Mat3::from_rotation_x(rx);
-        let world_from_object =
-            Affine3A::from_mat3_translation(rotation * Mat3::from_diagonal(scale), obj.translate.map_or(Vec3::ZERO, vec3));
+        let world_from_object = Affine3A::from_mat3_translation(
+            rotation * Mat3::from_diagonal(scale),
+            obj.translate.map_or(Vec3::ZERO, vec3),
+        );
         let transform = Transform { world_from_object };
         match mat {
             Some(m) => world.spawn((shape, transform, MaterialOf(m))),
@@ -119,7 +121,15 @@ fn vec3(v: [Num; 3]) -> Vec3 {
 }
 
 fn material(m: &MaterialDoc) -> Material {
-    Material { color: Vec3::from(m.color), ambi: m.ambi, diff: m.diff, spec: m.spec, shine: m.shine, alpha: m.alpha, n: m.n }
+    Material {
+        color: Vec3::from(m.color),
+        ambi: m.ambi,
+        diff: m.diff,
+        spec: m.spec,
+        shine: m.shine,
+        alpha: m.alpha,
+        n: m.n,
+    }
 }
 
 /// The span of a name: its own in table form, the whole entry's for a bare string.
@@ -145,7 +155,10 @@ fn params(cx: &Ctx<'_>, entry: &NamedDoc) -> Result<Params, LoadError> {
                 };
                 return Err(cx.err(
                     v.span(),
-                    LoadErrorKind::Syntax(format!("parameter `{}`: expected a finite number, boolean or string, found {what}", k.get_ref())),
+                    LoadErrorKind::Syntax(format!(
+                        "parameter `{}`: expected a finite number, boolean or string, found {what}",
+                        k.get_ref()
+                    )),
                 ));
             }
         };
@@ -161,7 +174,9 @@ fn model_err(cx: &Ctx<'_>, entry: &Spanned<NamedDoc>, e: lancer_shading::ModelEr
     let param_span = |p: &str| doc.params.iter().find(|(k, _)| k.get_ref() == p).map(|(k, _)| k.span());
     let span = match &e {
         M::UnknownParam { param, .. } => param_span(param),
-        M::BadParam { error, .. } => doc.params.iter().find(|(k, _)| *k.get_ref() == error.param).map(|(_, v)| v.span()),
+        M::BadParam { error, .. } => {
+            doc.params.iter().find(|(k, _)| *k.get_ref() == error.param).map(|(_, v)| v.span())
+        }
         M::UnknownVariant { .. } => doc.variant.as_ref().map(|v| v.span()),
         _ => None,
     };
@@ -170,18 +185,26 @@ fn model_err(cx: &Ctx<'_>, entry: &Spanned<NamedDoc>, e: lancer_shading::ModelEr
 
 fn build_pipeline(cx: &Ctx<'_>, m: &ModelDoc, registry: &Registry) -> Result<Pipeline, LoadError> {
     let shadows = match &m.shadows {
-        None => registry.build_shadow(lancer_shading::shadows::DEFAULT, Params::default()).expect("the default shadow model exists"),
+        None => registry
+            .build_shadow(lancer_shading::shadows::DEFAULT, Params::default())
+            .expect("the default shadow model exists"),
         Some(entry) => {
             let doc = entry.get_ref();
             if doc.key.as_deref() == Some("term") || doc.variant.is_some() {
                 let at = doc.variant.as_ref().map_or_else(|| name_span(entry), |v| v.span());
-                return Err(cx.err(at, LoadErrorKind::Syntax("a shadow model is named with `model = \"...\"` and has no variant".into())));
+                return Err(cx.err(
+                    at,
+                    LoadErrorKind::Syntax("a shadow model is named with `model = \"...\"` and has no variant".into()),
+                ));
             }
             registry.build_shadow(doc.name.get_ref(), params(cx, doc)?).map_err(|e| model_err(cx, entry, e))?
         }
     };
     let terms = match &m.terms {
-        None => return Pipeline::new(m.max_depth, shadows, registry.default_terms()).map_err(|e| cx.err(0..0, LoadErrorKind::Model(e))),
+        None => {
+            return Pipeline::new(m.max_depth, shadows, registry.default_terms())
+                .map_err(|e| cx.err(0..0, LoadErrorKind::Model(e)));
+        }
         Some(list) => list,
     };
     let mut built = Vec::with_capacity(terms.len());
@@ -191,10 +214,15 @@ fn build_pipeline(cx: &Ctx<'_>, m: &ModelDoc, registry: &Registry) -> Result<Pip
             return Err(cx.err(name_span(entry), LoadErrorKind::Syntax("a term is named with `term = \"...\"`".into())));
         }
         let variant = doc.variant.as_ref().map(|v| v.get_ref().as_str());
-        built.push(registry.build_term(doc.name.get_ref(), variant, params(cx, doc)?).map_err(|e| model_err(cx, entry, e))?);
+        built.push(
+            registry.build_term(doc.name.get_ref(), variant, params(cx, doc)?).map_err(|e| model_err(cx, entry, e))?,
+        );
     }
     Pipeline::new(m.max_depth, shadows, built).map_err(|e| {
-        let dup = terms.iter().enumerate().find(|(i, t)| terms[..*i].iter().any(|u| u.get_ref().name.get_ref() == t.get_ref().name.get_ref()));
+        let dup = terms
+            .iter()
+            .enumerate()
+            .find(|(i, t)| terms[..*i].iter().any(|u| u.get_ref().name.get_ref() == t.get_ref().name.get_ref()));
         cx.err(dup.map_or(0..0, |(_, t)| name_span(t)), LoadErrorKind::Model(e))
     })
 }

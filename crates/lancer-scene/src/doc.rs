@@ -4,8 +4,8 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
-use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize;
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use toml::Spanned;
 
 /// A finite number; integers are accepted.
@@ -43,7 +43,11 @@ impl<'de> Deserialize<'de> for Num {
 /// A finite number in `[lo, hi]`.
 fn ranged<'de, D: Deserializer<'de>>(d: D, lo: f32, hi: f32) -> Result<f32, D::Error> {
     let Num(x) = Num::deserialize(d)?;
-    if (lo..=hi).contains(&x) { Ok(x) } else { Err(de::Error::custom(format!("expected a number in [{lo}, {hi}], found {x}"))) }
+    if (lo..=hi).contains(&x) {
+        Ok(x)
+    } else {
+        Err(de::Error::custom(format!("expected a number in [{lo}, {hi}], found {x}")))
+    }
 }
 
 fn unit<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
@@ -206,7 +210,9 @@ impl<'de> Visitor<'de> for NamedVisitor {
             match k.get_ref().as_str() {
                 "term" | "model" => {
                     if name.is_some() {
-                        return Err(de::Error::custom("give the name once, as `term` (a term) or `model` (a shadow model)"));
+                        return Err(de::Error::custom(
+                            "give the name once, as `term` (a term) or `model` (a shadow model)",
+                        ));
                     }
                     key = Some(k.get_ref().clone());
                     name = Some(map.next_value::<Spanned<String>>()?);
@@ -215,7 +221,9 @@ impl<'de> Visitor<'de> for NamedVisitor {
                 _ => params.push((k, map.next_value::<Spanned<toml::Value>>()?)),
             }
         }
-        let name = name.ok_or_else(|| de::Error::custom("missing the name: `term = \"...\"` for a term, `model = \"...\"` for a shadow model"))?;
+        let name = name.ok_or_else(|| {
+            de::Error::custom("missing the name: `term = \"...\"` for a term, `model = \"...\"` for a shadow model")
+        })?;
         Ok(NamedDoc { name, variant, params, key })
     }
 }

@@ -59,8 +59,8 @@ pub struct LoadError {
     pub source_line: String,
     /// How many characters to underline from `column`.
     pub width: usize,
-    /// What went wrong.
-    pub kind: LoadErrorKind,
+    /// What went wrong (boxed: errors travel through `Result`s on every path).
+    pub kind: Box<LoadErrorKind>,
 }
 
 impl LoadError {
@@ -78,7 +78,7 @@ impl LoadError {
             column: src[line_start..start].chars().count() + 1,
             width: src[start..end].chars().count().max(1),
             source_line,
-            kind,
+            kind: Box::new(kind),
         }
     }
 }

@@ -46,7 +46,9 @@ fn a_full_scene_loads_into_the_world() {
 
 #[test]
 fn rotation_is_x_then_y_then_z_and_right_handed() {
-    let src = format!("{CAMERA}[[objects]]\nshape = \"cube\"\nscale = [2, 1, 1]\nrotate = [90, 90, 0]\ntranslate = [0, 0, 5]\n");
+    let src = format!(
+        "{CAMERA}[[objects]]\nshape = \"cube\"\nscale = [2, 1, 1]\nrotate = [90, 90, 0]\ntranslate = [0, 0, 5]\n"
+    );
     let l = load_scene(&src, "s.toml", &Registry::with_builtins()).unwrap();
     let t = *l.scene.world.query::<&lancer_core::Transform>().iter().next().unwrap();
     let m = t.world_from_object;
@@ -110,19 +112,28 @@ fn unknown_names_point_at_the_name_and_suggest_the_nearest() {
     let e = err(&src);
     assert_eq!((e.line, e.column), pos(&src, "\"glas\""));
     assert_eq!(
-        e.kind,
-        LoadErrorKind::UnknownMaterial { name: "glas".into(), nearest: Some("glass".into()), known: vec!["glass".into()] }
+        *e.kind,
+        LoadErrorKind::UnknownMaterial {
+            name: "glas".into(),
+            nearest: Some("glass".into()),
+            known: vec!["glass".into()]
+        }
     );
 
     let src = format!("{CAMERA}[[objects]]\nshape = \"sphre\"\n");
     let e = err(&src);
     assert_eq!((e.line, e.column), pos(&src, "\"sphre\""));
-    assert!(e.to_string().contains("unknown shape `sphre` (did you mean `sphere`?); known shapes: sphere, cube, plane"));
+    assert!(
+        e.to_string().contains("unknown shape `sphre` (did you mean `sphere`?); known shapes: sphere, cube, plane")
+    );
 
     let src = format!("{CAMERA}[model]\nterms = [\"ambient\", \"difuse\"]\n");
     let e = err(&src);
     assert_eq!((e.line, e.column), pos(&src, "\"difuse\""));
-    assert!(e.to_string().contains("unknown term `difuse` (did you mean `diffuse`?); known terms: ambient, diffuse"), "{e}");
+    assert!(
+        e.to_string().contains("unknown term `difuse` (did you mean `diffuse`?); known terms: ambient, diffuse"),
+        "{e}"
+    );
 
     let src = format!("{CAMERA}[model]\nshadows = \"sofft\"\n");
     assert!(err(&src).to_string().contains("unknown shadow model `sofft`"));

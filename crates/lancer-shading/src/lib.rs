@@ -15,8 +15,10 @@ mod term;
 pub mod terms;
 
 pub use params::{ParamError, ParamSpec, ParamValue, Params};
-pub use prepare::{Prepared, PrepareError, prepare};
-pub use registry::{ModelError, nearest, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec};
+pub use prepare::{PrepareError, Prepared, prepare};
+pub use registry::{
+    ModelError, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec, nearest,
+};
 pub use render::{RenderOptions, render, render_prepared};
 pub use shadow::{ShadowContext, ShadowModel};
 pub use term::{Chunk, ShadeContext, Term, TermOutput};

@@ -71,9 +71,10 @@ impl Params {
         match self.take(name) {
             None => Ok(default),
             Some(ParamValue::Number(x)) if (lo..=hi).contains(&x) => Ok(x),
-            Some(ParamValue::Number(x)) => {
-                Err(ParamError { param: name.to_owned(), message: format!("expected a number in [{lo}, {hi}], found {x}") })
-            }
+            Some(ParamValue::Number(x)) => Err(ParamError {
+                param: name.to_owned(),
+                message: format!("expected a number in [{lo}, {hi}], found {x}"),
+            }),
             Some(v) => Err(Self::wrong(name, "a number", &v)),
         }
     }

@@ -31,7 +31,8 @@ pub enum PrepareError {
 /// on how hecs stores them.
 pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
     let world = &scene.world;
-    let mut mats: Vec<(hecs::Entity, Material)> = world.query::<(hecs::Entity, &Material)>().iter().map(|(e, m)| (e, *m)).collect();
+    let mut mats: Vec<(hecs::Entity, Material)> =
+        world.query::<(hecs::Entity, &Material)>().iter().map(|(e, m)| (e, *m)).collect();
     mats.sort_by_key(|(e, _)| e.id());
     let index: HashMap<hecs::Entity, u32> = mats.iter().enumerate().map(|(i, (e, _))| (*e, i as u32)).collect();
     let mut materials: Vec<Material> = mats.into_iter().map(|(_, m)| m).collect();
@@ -50,10 +51,12 @@ pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
             None => default_material,
             Some(MaterialOf(e)) => *index.get(&e).ok_or(PrepareError::DanglingMaterial(i))?,
         };
-        objects.push(Object::new(shape, transform.world_from_object, material).ok_or(PrepareError::SingularTransform(i))?);
+        objects
+            .push(Object::new(shape, transform.world_from_object, material).ok_or(PrepareError::SingularTransform(i))?);
     }
 
-    let mut lights: Vec<(hecs::Entity, PointLight)> = world.query::<(hecs::Entity, &PointLight)>().iter().map(|(e, l)| (e, *l)).collect();
+    let mut lights: Vec<(hecs::Entity, PointLight)> =
+        world.query::<(hecs::Entity, &PointLight)>().iter().map(|(e, l)| (e, *l)).collect();
     lights.sort_by_key(|(e, _)| e.id());
     Ok(Prepared { geometry: Geometry::new(objects), materials, lights: lights.into_iter().map(|(_, l)| l).collect() })
 }

@@ -265,7 +265,8 @@ impl Registry {
                 known: self.shadows.iter().map(|s| s.name.to_owned()).collect(),
             });
         };
-        let model = (spec.build)(&mut params).map_err(|error| ModelError::BadParam { owner: name.to_owned(), error })?;
+        let model =
+            (spec.build)(&mut params).map_err(|error| ModelError::BadParam { owner: name.to_owned(), error })?;
         unused_param(name, &params, spec.params)?;
         Ok(NamedShadow { name: name.to_owned(), model })
     }
@@ -280,7 +281,8 @@ impl Registry {
 
     /// The handout's full model: every built-in term in order, hard shadows, depth 5.
     pub fn default_pipeline(&self) -> Pipeline {
-        let shadows = self.build_shadow(crate::shadows::DEFAULT, Params::default()).expect("the default shadow model exists");
+        let shadows =
+            self.build_shadow(crate::shadows::DEFAULT, Params::default()).expect("the default shadow model exists");
         Pipeline::new(5, shadows, self.default_terms()).expect("built-in term names are distinct")
     }
 }

@@ -5,7 +5,7 @@
 use glam::Vec3;
 use lancer_core::frame::BACKGROUND;
 use lancer_core::rays::{CHUNK_LANES, CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
-use lancer_core::{Camera, Frame, ImageSettings, Layer, Scene};
+use lancer_core::{Camera, Frame, ImageSettings, Layer, RenderStats, Scene};
 use lancer_shapes::{NO_SKIP, Origin};
 use rayon::prelude::*;
 
@@ -37,8 +37,9 @@ pub fn render_prepared(
     options: RenderOptions<'_>,
 ) -> Frame {
     let (width, height) = (image.width, image.height);
-    let tiles: Vec<(u32, u32)> =
-        (0..height.div_ceil(TILE)).flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE))).collect();
+    let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
+        .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
     let ctx = ShadeContext {
         geometry: &prepared.geometry,
         materials: &prepared.materials,
@@ -46,7 +47,7 @@ pub fn render_prepared(
         max_depth: pipeline.max_depth,
     };
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<Vec<Vec<Vec3>>> = tiles
+    let results: Vec<(Vec<Vec<Vec3>>, RenderStats)> = tiles
         .par_iter()
         .map(|&(x0, y0)| {
             let tile = Tile { x0, y0, w: TILE.min(width - x0), h: TILE.min(height - y0) };
@@ -62,7 +63,9 @@ pub fn render_prepared(
     names.push(BACKGROUND.to_owned());
     let mut layers: Vec<Layer> =
         names.into_iter().map(|name| Layer { name, pixels: vec![Vec3::ZERO; (width * height) as usize] }).collect();
-    for (&(x0, y0), tile) in tiles.iter().zip(results) {
+    let mut stats = RenderStats::default();
+    for (&(x0, y0), (tile, tile_stats)) in tiles.iter().zip(results) {
+        stats += tile_stats;
         let w = TILE.min(width - x0) as usize;
         for (layer, buf) in layers.iter_mut().zip(tile) {
             for (row, src) in buf.chunks_exact(w).enumerate() {
@@ -71,7 +74,7 @@ pub fn render_prepared(
             }
         }
     }
-    Frame { width, height, layers }
+    Frame { width, height, layers, stats }
 }
 
 #[derive(Clone, Copy)]
@@ -93,30 +96,45 @@ fn sample_offset(s: u32, n: u32) -> (f32, f32) {
     (((i / G).fract()) as f32, ((i / (G * G)).fract()) as f32)
 }
 
-fn render_tile(ctx: &ShadeContext<'_>, camera: &Camera, image: &ImageSettings, pipeline: &Pipeline, tile: Tile) -> Vec<Vec<Vec3>> {
+fn render_tile(
+    ctx: &ShadeContext<'_>,
+    camera: &Camera,
+    image: &ImageSettings,
+    pipeline: &Pipeline,
+    tile: Tile,
+) -> (Vec<Vec<Vec3>>, RenderStats) {
     let pixels = (tile.w * tile.h) as usize;
     let background_layer = pipeline.terms.len();
     let mut accum = vec![vec![Vec3::ZERO; pixels]; background_layer + 1];
     let shadow_ctx = ShadowContext { geometry: ctx.geometry, materials: ctx.materials };
     let mut world = hecs::World::new();
+    let mut stats = RenderStats::default();
 
-    spawn_chunks(&mut world, camera_system(camera, image, tile), ctx.lights.len());
+    let primary = camera_system(camera, image, tile);
+    stats.camera_rays = primary.len() as u64;
+    spawn_chunks(&mut world, primary, ctx.lights.len());
     loop {
         trace_system(&mut world, ctx);
-        visibility_system(&mut world, ctx, &shadow_ctx, pipeline);
+        stats.shadow_rays += visibility_system(&mut world, ctx, &shadow_ctx, pipeline);
         background_system(&world, image.background, background_layer, &mut accum);
         let mut next = Rays::default();
         for (layer, named) in pipeline.terms.iter().enumerate() {
             for (rays, hits, lights) in world.query::<(&Rays, &Hits, &LightSamples)>().iter() {
-                let mut out =
-                    TermOutput { layer: layer as u16, rays, accum: &mut accum, next: &mut next, max_depth: pipeline.max_depth };
+                let mut out = TermOutput {
+                    layer: layer as u16,
+                    rays,
+                    accum: &mut accum,
+                    next: &mut next,
+                    max_depth: pipeline.max_depth,
+                };
                 named.term.run(ctx, Chunk { rays, hits, lights }, &mut out);
             }
         }
         world.clear();
         if next.is_empty() {
-            return accum;
+            return (accum, stats);
         }
+        stats.secondary_rays += next.len() as u64;
         spawn_chunks(&mut world, next, ctx.lights.len());
     }
 }
@@ -178,9 +196,16 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
 }
 
 /// For every hit and light: the direction to the light and the light arriving through the
-/// pipeline's shadow model. Lights behind the surface (`N·w <= 0`) send nothing.
-fn visibility_system(world: &mut hecs::World, ctx: &ShadeContext<'_>, shadow_ctx: &ShadowContext<'_>, pipeline: &Pipeline) {
+/// pipeline's shadow model. Lights behind the surface (`N·w <= 0`) send nothing. Returns the
+/// number of shadow queries.
+fn visibility_system(
+    world: &mut hecs::World,
+    ctx: &ShadeContext<'_>,
+    shadow_ctx: &ShadowContext<'_>,
+    pipeline: &Pipeline,
+) -> u64 {
     let shadows = &pipeline.shadows.model;
+    let mut queries = 0;
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         for lane in 0..hits.object.len() {
             if hits.object[lane] == NO_HIT {
@@ -189,7 +214,9 @@ fn visibility_system(world: &mut hecs::World, ctx: &ShadeContext<'_>, shadow_ctx
             let (p, n) = (hits.point[lane], hits.facing_normal(lane));
             for (k, light) in ctx.lights.iter().enumerate() {
                 let slot = lane * ctx.lights.len() + k;
-                let Some(w) = (light.at - p).try_normalize() else { continue };
+                let Some(w) = (light.at - p).try_normalize() else {
+                    continue;
+                };
                 samples.w[slot] = w;
                 if n.dot(w) <= 0.0 {
                     continue;
@@ -197,11 +224,15 @@ fn visibility_system(world: &mut hecs::World, ctx: &ShadeContext<'_>, shadow_ctx
                 let from = ctx.geometry.leave(hits.object[lane], p, n);
                 let to_light = light.at - from.point;
                 let dist = to_light.length();
-                let Some(dir) = to_light.try_normalize() else { continue };
+                let Some(dir) = to_light.try_normalize() else {
+                    continue;
+                };
                 samples.incoming[slot] = light.radiance() * shadows.transmittance(shadow_ctx, from, dir, dist);
+                queries += 1;
             }
         }
     }
+    queries
 }
 
 /// Rays that hit nothing see the background: a camera ray's goes to the background layer, a

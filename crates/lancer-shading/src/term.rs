@@ -88,7 +88,15 @@ impl TermOutput<'_> {
             return;
         }
         let credit = self.credit(lane);
-        self.next.push(origin.point, origin.skip, dir, weight, self.rays.pixel[lane], self.rays.depth[lane] + 1, credit);
+        self.next.push(
+            origin.point,
+            origin.skip,
+            dir,
+            weight,
+            self.rays.pixel[lane],
+            self.rays.depth[lane] + 1,
+            credit,
+        );
     }
 }
 

@@ -48,7 +48,9 @@ impl Bvh {
     fn split(&mut self, bounds: &[Aabb], centres: &[Vec3], start: usize, end: usize) -> usize {
         let items = &self.indices[start..end];
         let node_bounds = items.iter().fold(Aabb::EMPTY, |a, &i| a.union(bounds[i as usize]));
-        let cb = items.iter().fold(Aabb::EMPTY, |a, &i| a.union(Aabb { min: centres[i as usize], max: centres[i as usize] }));
+        let cb = items
+            .iter()
+            .fold(Aabb::EMPTY, |a, &i| a.union(Aabb { min: centres[i as usize], max: centres[i as usize] }));
         let node = self.nodes.len();
         self.nodes.push(Node { bounds: node_bounds, start: start as u32, count: (end - start) as u32, axis: 0 });
         let n = end - start;

@@ -215,15 +215,19 @@ mod tests {
 
     #[test]
     fn bvh_gives_the_brute_force_closest_hit() {
-        let mut runner =
-            TestRunner::new_with_rng(Config { cases: 200, ..Config::default() }, TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]));
+        let mut runner = TestRunner::new_with_rng(
+            Config { cases: 200, ..Config::default() },
+            TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]),
+        );
         let obj = (0u8..8, prop::array::uniform3(-10f32..10.0), 0.1f32..2.0, prop::array::uniform3(-3f32..3.0));
         let ray = (prop::array::uniform3(-12f32..12.0), prop::array::uniform3(-1f32..1.0), 0u32..100);
         runner
             .run(&(prop::collection::vec(obj, 1..60), prop::collection::vec(ray, 50)), |(spec, rays)| {
                 let g = random_scene(&spec);
                 for (o, d, skip) in rays {
-                    let Some(d) = Vec3::from(d).try_normalize() else { continue };
+                    let Some(d) = Vec3::from(d).try_normalize() else {
+                        continue;
+                    };
                     let o = Origin { point: Vec3::from(o), skip: skip % 64 };
                     let a = g.closest_hit(o, d, 1e-4, f32::INFINITY);
                     let b = g.closest_hit_brute_force(o, d, 1e-4, f32::INFINITY);
@@ -236,7 +240,11 @@ mod tests {
 
     #[test]
     fn scaled_sphere_exit_and_normals_are_in_world_space() {
-        let m = Affine3A::from_scale_rotation_translation(Vec3::new(2.0, 1.0, 1.0), Quat::IDENTITY, Vec3::new(0.0, 0.0, 5.0));
+        let m = Affine3A::from_scale_rotation_translation(
+            Vec3::new(2.0, 1.0, 1.0),
+            Quat::IDENTITY,
+            Vec3::new(0.0, 0.0, 5.0),
+        );
         let g = Geometry::new(vec![Object::new(Shape::Sphere, m, 0).unwrap()]);
         let h = g.closest_hit(Origin::free(Vec3::new(-10.0, 0.0, 5.0)), Vec3::X, 0.0, f32::INFINITY).unwrap();
         assert!((h.t - 8.0).abs() < 1e-5 && (h.normal + Vec3::X).length() < 1e-6 && h.front);

@@ -62,7 +62,13 @@ impl Shape {
         match self {
             Shape::Sphere => {
                 let (t0, t1) = sphere_roots(o, d)?;
-                let t = if ok(t0) { t0 } else if ok(t1) { t1 } else { return None };
+                let t = if ok(t0) {
+                    t0
+                } else if ok(t1) {
+                    t1
+                } else {
+                    return None;
+                };
                 Some((t, (o + t * d).normalize_or(Vec3::Y)))
             }
             Shape::Cube => {

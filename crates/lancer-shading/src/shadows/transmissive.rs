@@ -36,7 +36,9 @@ impl ShadowModel for Transmissive {
         let mut light = Vec3::ONE;
         let (mut from, mut left) = (from, dist);
         for _ in 0..MAX_CROSSINGS {
-            let Some(hit) = ctx.geometry.closest_hit(from, dir, 0.0, left) else { return light };
+            let Some(hit) = ctx.geometry.closest_hit(from, dir, 0.0, left) else {
+                return light;
+            };
             let m = ctx.material(hit.object);
             if m.alpha <= 0.0 {
                 return Vec3::ZERO;
