@@ -115,22 +115,30 @@ impl Shape {
     }
 }
 
-/// Both roots of `|o + t d|² = 1`, ascending, by the cancellation-free quadratic formula.
+/// Both roots of `|o + t d|² = 1`, ascending.
+///
+/// The discriminant `b² − a c` is computed as `a (1 − |q|²)`, with `q` the line's point closest
+/// to the centre: the textbook form cancels two large terms when the origin is far away (or the
+/// sphere is scaled small), putting hit points off the surface by more than the ray offset.
 #[inline]
 fn sphere_roots(o: Vec3, d: Vec3) -> Option<(f32, f32)> {
     let a = d.dot(d);
-    let b = o.dot(d);
-    let c = o.dot(o) - 1.0;
-    let disc = b * b - a * c;
-    if disc < 0.0 || a == 0.0 {
+    if a == 0.0 {
         return None;
     }
-    let q = -(b + disc.sqrt().copysign(b));
-    if q == 0.0 {
+    let b = o.dot(d);
+    let q = o - (b / a) * d;
+    let disc = a * (1.0 - q.dot(q));
+    if disc < 0.0 {
+        return None;
+    }
+    let c = o.dot(o) - 1.0;
+    let h = -(b + disc.sqrt().copysign(b));
+    if h == 0.0 {
         // b = 0 and disc = 0: the line grazes the sphere at t = 0.
         return Some((0.0, 0.0));
     }
-    let (r0, r1) = (q / a, c / q);
+    let (r0, r1) = (h / a, c / h);
     Some(if r0 <= r1 { (r0, r1) } else { (r1, r0) })
 }
 

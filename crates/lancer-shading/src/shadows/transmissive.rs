@@ -66,3 +66,65 @@ impl ShadowModel for Transmissive {
         Vec3::ZERO
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::{Affine3A, Vec3};
+    use lancer_core::Material;
+    use lancer_shapes::{Geometry, Object, Origin, Shape};
+
+    use crate::{Params, ShadowContext};
+
+    fn sphere_at(z: f32, material: u32) -> Object {
+        Object::new(Shape::Sphere, Affine3A::from_translation(Vec3::new(0.0, 0.0, z)), material).unwrap()
+    }
+
+    fn transmittance(model: &str, tint: bool, objects: Vec<Object>, dist: f32) -> Vec3 {
+        let glass = Material { color: Vec3::new(1.0, 0.5, 0.25), alpha: 0.5, ..Material::default() };
+        let opaque = Material::default();
+        let g = Geometry::new(objects);
+        let materials = [glass, opaque];
+        let ctx = ShadowContext { geometry: &g, materials: &materials };
+        let params = if model == "transmissive" {
+            Params::new([("tint".to_owned(), crate::ParamValue::Bool(tint))])
+        } else {
+            Params::default()
+        };
+        let m = crate::Registry::with_builtins().build_shadow(model, params).unwrap();
+        m.model.transmittance(&ctx, Origin::free(Vec3::ZERO), Vec3::Z, dist)
+    }
+
+    #[test]
+    fn each_glass_object_crossed_counts_once() {
+        assert_eq!(transmittance("transmissive", false, vec![], 10.0), Vec3::ONE);
+        assert_eq!(transmittance("transmissive", false, vec![sphere_at(3.0, 0)], 10.0), Vec3::splat(0.5));
+        assert_eq!(
+            transmittance("transmissive", false, vec![sphere_at(3.0, 0), sphere_at(6.0, 0)], 10.0),
+            Vec3::splat(0.25)
+        );
+        // The second sphere lies beyond the light: it does not count.
+        assert_eq!(
+            transmittance("transmissive", false, vec![sphere_at(3.0, 0), sphere_at(6.0, 0)], 4.5),
+            Vec3::splat(0.5)
+        );
+        // A light inside a glass sphere is dimmed by it once.
+        assert_eq!(transmittance("transmissive", false, vec![sphere_at(3.0, 0)], 3.0), Vec3::splat(0.5));
+    }
+
+    #[test]
+    fn opaque_blocks_and_tint_filters() {
+        assert_eq!(transmittance("transmissive", false, vec![sphere_at(3.0, 0), sphere_at(6.0, 1)], 10.0), Vec3::ZERO);
+        assert_eq!(transmittance("transmissive", true, vec![sphere_at(3.0, 0)], 10.0), Vec3::new(0.5, 0.25, 0.125));
+    }
+
+    #[test]
+    fn hard_blocks_even_glass_and_none_blocks_nothing() {
+        assert_eq!(transmittance("hard", false, vec![sphere_at(3.0, 0)], 10.0), Vec3::ZERO);
+        assert_eq!(
+            transmittance("hard", false, vec![sphere_at(3.0, 0)], 1.5),
+            Vec3::ONE,
+            "the occluder is past the light"
+        );
+        assert_eq!(transmittance("none", false, vec![sphere_at(3.0, 1)], 10.0), Vec3::ONE);
+    }
+}

@@ -82,3 +82,70 @@ pub fn through(
     }
     None
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::{Affine3A, Vec3};
+    use lancer_shapes::{Geometry, Object, Shape};
+
+    use super::through;
+    use crate::ShadeContext;
+
+    fn ctx(geometry: &Geometry) -> ShadeContext<'_> {
+        ShadeContext { geometry, materials: &[], lights: &[], max_depth: 5 }
+    }
+
+    fn glass(shape: Shape, m: Affine3A) -> Geometry {
+        Geometry::new(vec![Object::new(shape, m, 0).unwrap()])
+    }
+
+    #[test]
+    fn along_a_diameter_the_ray_goes_straight_through_the_sphere() {
+        let g = glass(Shape::Sphere, Affine3A::from_translation(Vec3::new(0.0, 0.0, 5.0)));
+        let (from, dir) = through(&ctx(&g), 0, Vec3::new(0.0, 0.0, 4.0), -Vec3::Z, Vec3::Z, 1.5, true).unwrap();
+        assert!((dir - Vec3::Z).length() < 1e-6);
+        assert!((from.point - Vec3::new(0.0, 0.0, 6.0)).length() < 1e-3, "leaves at the far pole: {}", from.point);
+    }
+
+    #[test]
+    fn through_a_slab_the_ray_is_shifted_sideways_by_snells_amount() {
+        // A slab 2 thick (the cube scaled 10 in x and z): enters at y = 1, leaves at y = -1.
+        let g = glass(Shape::Cube, Affine3A::from_scale(Vec3::new(10.0, 1.0, 10.0)));
+        let (n, theta) = (1.5f32, 50f32.to_radians());
+        let u = Vec3::new(theta.sin(), -theta.cos(), 0.0);
+        let entry = Vec3::new(0.0, 1.0, 0.0);
+        let (from, dir) = through(&ctx(&g), 0, entry, Vec3::Y, u, n, true).unwrap();
+        assert!((dir - u).length() < 1e-5, "leaves parallel to itself: {dir} vs {u}");
+        // Inside, sin θt = sin θ / n; the exit is at x = 2 tan θt below the entry.
+        let theta_t = (theta.sin() / n).asin();
+        assert!((from.point.x - 2.0 * theta_t.tan()).abs() < 1e-3, "exit x {}", from.point.x);
+        assert!((from.point.y + 1.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn total_internal_reflection_inside_a_cube_reflects_then_leaves() {
+        // Entering the top face steeply into n = 2.4 glass, the ray meets the side face past the
+        // critical angle (24.6°): it must reflect there and leave through the bottom face.
+        let g = glass(Shape::Cube, Affine3A::IDENTITY);
+        let u = Vec3::new(0.9, -0.2, 0.0).normalize();
+        let (from, dir) = through(&ctx(&g), 0, Vec3::new(0.5, 1.0, 0.0), Vec3::Y, u, 2.4, true).unwrap();
+        assert!(dir.is_finite() && (dir.length() - 1.0).abs() < 1e-5);
+        assert!(from.point.is_finite());
+        // A reflection off the +x face sends it back towards -x.
+        assert!(dir.x < 0.0, "{dir}");
+    }
+
+    #[test]
+    fn a_ray_trapped_by_total_internal_reflection_brings_nothing() {
+        // Inside a sphere every chord meets the surface at the same angle, so a ray beyond the
+        // critical angle (24.6° for n = 2.4) bounces forever: it is dropped after max_depth
+        // reflections instead of looping or producing a NaN.
+        let g = glass(Shape::Sphere, Affine3A::IDENTITY);
+        let alpha = 70f32.to_radians();
+        let d = Vec3::new(alpha.cos(), alpha.sin(), 0.0);
+        assert_eq!(through(&ctx(&g), 0, Vec3::X, Vec3::X, d, 2.4, false), None);
+        // Below the critical angle it leaves at once.
+        let d = Vec3::new(20f32.to_radians().cos(), 20f32.to_radians().sin(), 0.0);
+        assert!(through(&ctx(&g), 0, Vec3::X, Vec3::X, d, 2.4, false).is_some());
+    }
+}

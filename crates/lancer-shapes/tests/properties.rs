@@ -1,0 +1,127 @@
+//! Geometric properties of every shape under random affine transforms (proptest, fixed seed):
+//! hits lie on the surface, normals are unit and outward, exits from inside lie on the surface,
+//! a ray leaving a convex shape never meets it again, and transforming then intersecting agrees
+//! with intersecting in object space.
+
+use glam::{Affine3A, EulerRot, Quat, Vec3};
+use lancer_shapes::{Object, Shape, offset_origin};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+
+/// How far an object-space point is from the shape's surface (0 on it).
+fn surface_distance(shape: Shape, p: Vec3) -> f32 {
+    match shape {
+        Shape::Sphere => (p.length() - 1.0).abs(),
+        Shape::Cube => (p.abs().max_element() - 1.0).abs(),
+        Shape::Plane => p.y.abs(),
+    }
+}
+
+/// The outward normal in object space at a surface point.
+fn object_normal(shape: Shape, p: Vec3) -> Vec3 {
+    match shape {
+        Shape::Sphere => p.normalize(),
+        Shape::Cube => {
+            let a = p.abs();
+            let axis = if a.x >= a.y && a.x >= a.z {
+                0
+            } else if a.y >= a.z {
+                1
+            } else {
+                2
+            };
+            Vec3::AXES[axis] * p[axis].signum()
+        }
+        Shape::Plane => Vec3::Y,
+    }
+}
+
+fn runner(seed: u8) -> TestRunner {
+    TestRunner::new_with_rng(
+        Config { cases: 512, ..Config::default() },
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[seed; 32]),
+    )
+}
+
+fn transform() -> impl Strategy<Value = Affine3A> {
+    (prop::array::uniform3(0.3f32..3.0), prop::array::uniform3(-3.2f32..3.2), prop::array::uniform3(-5f32..5.0))
+        .prop_map(|(s, r, t)| {
+            Affine3A::from_scale_rotation_translation(
+                Vec3::from(s),
+                Quat::from_euler(EulerRot::XYZ, r[0], r[1], r[2]),
+                Vec3::from(t),
+            )
+        })
+}
+
+fn unit() -> impl Strategy<Value = Vec3> {
+    prop::array::uniform3(-1f32..1.0).prop_filter_map("non-zero", |v| Vec3::from(v).try_normalize())
+}
+
+const SHAPES: [Shape; 3] = [Shape::Sphere, Shape::Cube, Shape::Plane];
+
+#[test]
+fn hits_are_on_the_surface_with_unit_outward_normals_and_match_object_space() {
+    runner(1)
+        .run(&(0usize..3, transform(), unit(), unit()), |(k, m, aim, dir)| {
+            let shape = SHAPES[k];
+            let obj = Object::new(shape, m, 0).unwrap();
+            // Aim at a point near the object so most rays hit.
+            let target = m.transform_point3(aim * 0.9);
+            let origin = target
+                - dir * 12.0 * m.matrix3.x_axis.length().max(m.matrix3.y_axis.length()).max(m.matrix3.z_axis.length());
+            let Some((t, n)) = obj.intersect(origin, dir, 0.0, f32::INFINITY) else { return Ok(()) };
+            let p_world = origin + t * dir;
+            let p_obj = m.inverse().transform_point3(p_world);
+            prop_assert!(surface_distance(shape, p_obj) < 1e-3, "{shape:?}: {p_obj} is off the surface");
+            prop_assert!((n.length() - 1.0).abs() < 1e-5);
+            let expected = (m.inverse().matrix3.transpose() * object_normal(shape, p_obj)).normalize();
+            prop_assert!(n.dot(Vec3::from(expected)) > 0.999, "{shape:?}: normal {n} vs {expected}");
+            // Same hit when intersecting the object-space ray directly.
+            let inv = m.inverse();
+            let (t_obj, _) =
+                shape.intersect(inv.transform_point3(origin), inv.transform_vector3(dir), 0.0, f32::INFINITY).unwrap();
+            prop_assert!((t - t_obj).abs() <= 1e-4 * t.max(1.0));
+            Ok(())
+        })
+        .unwrap();
+}
+
+#[test]
+fn exits_from_inside_are_on_the_surface_and_ahead() {
+    runner(2)
+        .run(&(0usize..2, transform(), prop::array::uniform3(-0.95f32..0.95), unit()), |(k, m, inside, dir)| {
+            let shape = SHAPES[k];
+            let obj = Object::new(shape, m, 0).unwrap();
+            let start = Vec3::from(inside) * if shape == Shape::Sphere { 0.55 } else { 1.0 };
+            let o = m.transform_point3(start);
+            let (t, n) = obj.exit(o, dir).expect("a closed shape is always left");
+            prop_assert!(t > 0.0);
+            let p_obj = m.inverse().transform_point3(o + t * dir);
+            prop_assert!(surface_distance(shape, p_obj) < 1e-3, "{shape:?}: exit {p_obj} off the surface");
+            prop_assert!(n.dot(dir) > -1e-4, "the exit normal faces the way out");
+            Ok(())
+        })
+        .unwrap();
+}
+
+#[test]
+fn a_ray_leaving_a_convex_shape_never_meets_it_again() {
+    runner(3)
+        .run(&(0usize..3, transform(), unit(), unit(), unit()), |(k, m, aim, dir, out)| {
+            let shape = SHAPES[k];
+            let obj = Object::new(shape, m, 0).unwrap();
+            let target = m.transform_point3(aim * 0.9);
+            let Some((t, n)) = obj.intersect(target - dir * 50.0, dir, 0.0, f32::INFINITY) else { return Ok(()) };
+            let p = target - dir * 50.0 + t * dir;
+            // Any direction into the outer half-space, from just off the surface.
+            let away = if out.dot(n) > 0.0 { out } else { -out };
+            if away.dot(n) < 1e-3 {
+                return Ok(());
+            }
+            let again = obj.intersect(offset_origin(p, n), away, 0.0, f32::INFINITY);
+            prop_assert!(again.is_none(), "{shape:?}: re-hit at {again:?}");
+            Ok(())
+        })
+        .unwrap();
+}
