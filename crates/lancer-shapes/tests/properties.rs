@@ -76,7 +76,7 @@ fn hits_are_on_the_surface_with_unit_outward_normals_and_match_object_space() {
             prop_assert!(surface_distance(shape, p_obj) < 1e-3, "{shape:?}: {p_obj} is off the surface");
             prop_assert!((n.length() - 1.0).abs() < 1e-5);
             let expected = (m.inverse().matrix3.transpose() * object_normal(shape, p_obj)).normalize();
-            prop_assert!(n.dot(Vec3::from(expected)) > 0.999, "{shape:?}: normal {n} vs {expected}");
+            prop_assert!(n.dot(expected) > 0.999, "{shape:?}: normal {n} vs {expected}");
             // Same hit when intersecting the object-space ray directly.
             let inv = m.inverse();
             let (t_obj, _) =
