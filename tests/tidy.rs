@@ -1,5 +1,6 @@
 //! Tidy checks over the source tree: every Rust file says what it is on its first line, no
-//! placeholder macro (todo, unimplemented) is left, and every built-in term is used by some scene.
+//! placeholder macro (todo, unimplemented) is left, and every built-in term, variant and shadow
+//! model is used by some scene or model file.
 
 use std::path::{Path, PathBuf};
 
@@ -46,12 +47,24 @@ fn no_todo_or_unimplemented_is_left() {
 }
 
 #[test]
-fn every_built_in_term_and_shadow_model_is_used_by_a_scene() {
-    let scenes: String = lancer_tests::scene_files().iter().map(|p| std::fs::read_to_string(p).unwrap()).collect();
+fn every_built_in_term_variant_and_shadow_model_is_used_by_a_scene_or_model_file() {
+    let mut files = lancer_tests::scene_files();
+    files.extend(std::fs::read_dir(root().join("models")).unwrap().map(|e| e.unwrap().path()));
+    let text: String = files.iter().map(|p| std::fs::read_to_string(p).unwrap()).collect();
     for t in lancer_shading::terms::BUILTIN {
-        assert!(scenes.contains(&format!("\"{}\"", t.name)), "no scene uses term `{}`", t.name);
+        assert!(text.contains(&format!("\"{}\"", t.name)), "no scene or model uses term `{}`", t.name);
+        assert!(
+            text.contains(&format!("variant = \"{}\"", t.variant)) || t.variant == default_variant(t.name),
+            "no scene or model uses `{}` variant `{}`",
+            t.name,
+            t.variant
+        );
     }
     for s in lancer_shading::shadows::BUILTIN {
-        assert!(scenes.contains(&format!("\"{}\"", s.name)), "no scene uses shadow model `{}`", s.name);
+        assert!(text.contains(&format!("\"{}\"", s.name)), "no scene or model uses shadow model `{}`", s.name);
     }
+}
+
+fn default_variant(name: &str) -> &'static str {
+    lancer_shading::terms::BUILTIN.iter().find(|t| t.name == name).unwrap().variant
 }

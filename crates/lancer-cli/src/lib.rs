@@ -1,6 +1,9 @@
-//! The `lancer` command's library half: encoding frames to PNG (sRGB, 8-bit) and EXR (linear
-//! float), and writing files whole or not at all. The binary in `main.rs` parses flags and
-//! composes the other crates.
+//! The `lancer` command as a library: [`main_with`] runs the whole command line with a registry
+//! of your choosing (so your own terms get `render`, `--aov`, `--model`, `terms`...), plus image
+//! encoding ([`output`]) and the `lancer terms` text ([`listing`]).
 
+mod app;
 pub mod listing;
 pub mod output;
+
+pub use app::{DEFAULT_SCENE, main_with};

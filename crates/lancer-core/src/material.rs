@@ -1,4 +1,4 @@
-//! The handout's material (six numbers and a colour) and point lights.
+//! The handout's material (six numbers and a colour) and lights.
 
 use glam::Vec3;
 
@@ -28,18 +28,22 @@ impl Default for Material {
     }
 }
 
-/// A point light (no distance fall-off, as in the handout).
+/// A light: a point, or a square area light when `size > 0`. No distance fall-off (the
+/// handout's model).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointLight {
-    /// Position.
+pub struct Light {
+    /// Position (the square's centre for an area light).
     pub at: Vec3,
     /// `Col_L` before intensity, linear RGB.
     pub color: Vec3,
     /// Scales `color`.
     pub intensity: f32,
+    /// Side of the square area light, parallel to the xz-plane (facing down); 0 for a point.
+    /// Only the `soft` shadow model samples the square; the others see its centre.
+    pub size: f32,
 }
 
-impl PointLight {
+impl Light {
     /// The light's colour times its intensity: `Col_L` in the model's formulas.
     #[inline]
     pub fn radiance(&self) -> Vec3 {

@@ -117,3 +117,69 @@ mod tests {
         assert_eq!(critical_angle(1.0, 1.5), None);
     }
 }
+
+/// Fresnel reflectance of unpolarised light at a smooth dielectric interface, going from index
+/// `eta_i` into `eta_t`, with `cos_i` the cosine of the incidence angle (taken as its absolute
+/// value). 1 on total internal reflection; `R` and `T = 1 − R` always in [0, 1].
+pub fn fresnel_dielectric(cos_i: f32, eta_i: f32, eta_t: f32) -> f32 {
+    let cos_i = cos_i.abs().min(1.0);
+    let sin_t = eta_i / eta_t * (1.0 - cos_i * cos_i).max(0.0).sqrt();
+    if sin_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin_t * sin_t).max(0.0).sqrt();
+    let rs = (eta_i * cos_i - eta_t * cos_t) / (eta_i * cos_i + eta_t * cos_t);
+    let rp = (eta_t * cos_i - eta_i * cos_t) / (eta_t * cos_i + eta_i * cos_t);
+    // The denominators vanish only at grazing incidence with cos_t = 0 too, i.e. sin_t = 1: TIR.
+    let r = 0.5 * (rs * rs + rp * rp);
+    if r.is_finite() { r.clamp(0.0, 1.0) } else { 1.0 }
+}
+
+/// Schlick's approximation of Fresnel reflectance: `F0 + (1 − F0)(1 − cos θ)⁵`.
+#[inline]
+pub fn schlick(cos_i: f32, f0: f32) -> f32 {
+    let m = (1.0 - cos_i.abs().min(1.0)).max(0.0);
+    f0 + (1.0 - f0) * m * m * m * m * m
+}
+
+/// Reflectance at normal incidence between indices 1 and `n`: `((n − 1) / (n + 1))²`.
+#[inline]
+pub fn f0_from_index(n: f32) -> f32 {
+    let r = (n - 1.0) / (n + 1.0);
+    r * r
+}
+
+#[cfg(test)]
+mod fresnel_tests {
+    use super::*;
+
+    #[test]
+    fn schlick_and_exact_fresnel_agree_at_normal_incidence() {
+        assert!((f0_from_index(1.5) - 0.04).abs() < 1e-7);
+        assert!((schlick(1.0, f0_from_index(1.5)) - 0.04).abs() < 1e-7);
+        assert!((fresnel_dielectric(1.0, 1.0, 1.5) - 0.04).abs() < 1e-6);
+        assert!((fresnel_dielectric(1.0, 1.5, 1.0) - 0.04).abs() < 1e-6);
+        assert!((schlick(0.0, 0.04) - 1.0).abs() < 1e-7, "grazing: everything reflects");
+        assert_eq!(fresnel_dielectric(1.0, 1.0, 1.0), 0.0, "index-matched: nothing reflects");
+    }
+
+    #[test]
+    fn exact_fresnel_is_total_past_the_critical_angle_and_never_nan() {
+        let crit = critical_angle(1.5, 1.0).unwrap();
+        assert_eq!(fresnel_dielectric((crit + 1e-3).cos(), 1.5, 1.0), 1.0);
+        assert!(fresnel_dielectric((crit - 1e-2).cos(), 1.5, 1.0) < 1.0);
+        for k in 0..=1000 {
+            let c = k as f32 / 1000.0;
+            for (a, b) in [(1.0, 1.5), (1.5, 1.0), (1.0, 2.4), (2.4, 1.0)] {
+                let r = fresnel_dielectric(c, a, b);
+                assert!((0.0..=1.0).contains(&r), "cos {c}, {a} -> {b}: {r}");
+            }
+        }
+        // Brewster's angle: p-polarised reflection vanishes, so R = rs² / 2 there, with rs from
+        // the sine form of the Fresnel equations, −sin(θi − θt) / sin(θi + θt).
+        let (ti, tt) = (1.5f64.atan(), (1.5f64.atan().sin() / 1.5).asin());
+        let rs = -(ti - tt).sin() / (ti + tt).sin();
+        let r = fresnel_dielectric(ti.cos() as f32, 1.0, 1.5);
+        assert!((r as f64 - rs * rs / 2.0).abs() < 1e-5, "{r} vs {}", rs * rs / 2.0);
+    }
+}

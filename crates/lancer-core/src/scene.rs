@@ -45,7 +45,7 @@ pub struct Meta {
 
 /// A loaded scene. Objects are entities with a shape component (from the shapes crate), a
 /// [`Transform`] and a [`MaterialOf`]; materials are entities with a [`crate::Material`]; lights
-/// are entities with a [`crate::PointLight`].
+/// are entities with a [`crate::Light`].
 pub struct Scene {
     /// The scene's entities.
     pub world: hecs::World,

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use std::ops::Range;
 
 use glam::{Affine3A, Mat3, Vec3};
-use lancer_core::{Camera, ImageSettings, Material, MaterialOf, Meta, PointLight, Scene, Transform};
+use lancer_core::{Camera, ImageSettings, Light, Material, MaterialOf, Meta, Scene, Transform};
 use lancer_shading::{ParamValue, Params, Pipeline, Registry};
 use lancer_shapes::Shape;
 use toml::Spanned;
@@ -51,7 +51,7 @@ pub fn load_scene(src: &str, file: &str, registry: &Registry) -> Result<Loaded, 
         named.insert(name, world.spawn((material(m),)));
     }
     for l in &doc.lights {
-        world.spawn((PointLight { at: vec3(l.at), color: Vec3::from(l.color), intensity: l.intensity },));
+        world.spawn((Light { at: vec3(l.at), color: Vec3::from(l.color), intensity: l.intensity, size: l.size },));
     }
     for o in &doc.objects {
         let obj = o.get_ref();

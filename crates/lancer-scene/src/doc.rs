@@ -274,6 +274,8 @@ pub struct LightDoc {
     pub color: [f32; 3],
     #[serde(default = "d_intensity", deserialize_with = "non_negative")]
     pub intensity: f32,
+    #[serde(default, deserialize_with = "non_negative")]
+    pub size: f32,
 }
 
 fn d_intensity() -> f32 {

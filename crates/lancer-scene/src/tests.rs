@@ -1,6 +1,6 @@
 //! Unit tests of scene and model loading: what loads, and how each kind of mistake is reported.
 
-use lancer_core::{Material, PointLight};
+use lancer_core::{Light, Material};
 use lancer_shading::Registry;
 use lancer_shapes::Shape;
 
@@ -36,8 +36,11 @@ fn a_full_scene_loads_into_the_world() {
     assert_eq!((s.image.width, s.image.height, s.image.samples), (32, 16, 4));
     assert_eq!(s.world.query::<&Shape>().iter().count(), 3);
     assert_eq!(s.world.query::<&Material>().iter().count(), 2, "one named, one inline");
-    let lights: Vec<PointLight> = s.world.query::<&PointLight>().iter().copied().collect();
-    assert_eq!(lights, [PointLight { at: glam::Vec3::new(1.0, 2.0, 3.0), color: glam::Vec3::ONE, intensity: 0.5 }]);
+    let lights: Vec<Light> = s.world.query::<&Light>().iter().copied().collect();
+    assert_eq!(
+        lights,
+        [Light { at: glam::Vec3::new(1.0, 2.0, 3.0), color: glam::Vec3::ONE, intensity: 0.5, size: 0.0 }]
+    );
     // No [model]: the handout's five terms in order, hard shadows, depth 5.
     let names: Vec<&str> = l.pipeline.terms.iter().map(|t| t.name.as_str()).collect();
     assert_eq!(names, ["ambient", "diffuse", "specular", "mirror", "refraction"]);

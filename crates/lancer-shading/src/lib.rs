@@ -17,8 +17,8 @@ pub mod terms;
 pub use params::{ParamError, ParamSpec, ParamValue, Params};
 pub use prepare::{PrepareError, Prepared, prepare};
 pub use registry::{
-    ModelError, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec, nearest,
+    ModelError, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec, WEIGHT, nearest,
 };
 pub use render::{RenderOptions, render, render_prepared};
 pub use shadow::{ShadowContext, ShadowModel};
-pub use term::{Chunk, ShadeContext, Term, TermOutput};
+pub use term::{Chunk, ShadeContext, Term, TermOutput, sum_lights};

@@ -3,7 +3,7 @@
 
 use std::collections::HashMap;
 
-use lancer_core::{Material, MaterialOf, PointLight, Scene, Transform};
+use lancer_core::{Light, Material, MaterialOf, Scene, Transform};
 use lancer_shapes::{Geometry, Object, Shape};
 
 /// The scene as the render loop reads it.
@@ -13,7 +13,7 @@ pub struct Prepared {
     /// Material table.
     pub materials: Vec<Material>,
     /// Lights, in the order they were added to the World.
-    pub lights: Vec<PointLight>,
+    pub lights: Vec<Light>,
 }
 
 /// A World that cannot be rendered.
@@ -55,8 +55,8 @@ pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
             .push(Object::new(shape, transform.world_from_object, material).ok_or(PrepareError::SingularTransform(i))?);
     }
 
-    let mut lights: Vec<(hecs::Entity, PointLight)> =
-        world.query::<(hecs::Entity, &PointLight)>().iter().map(|(e, l)| (e, *l)).collect();
+    let mut lights: Vec<(hecs::Entity, Light)> =
+        world.query::<(hecs::Entity, &Light)>().iter().map(|(e, l)| (e, *l)).collect();
     lights.sort_by_key(|(e, _)| e.id());
     Ok(Prepared { geometry: Geometry::new(objects), materials, lights: lights.into_iter().map(|(_, l)| l).collect() })
 }

@@ -121,12 +121,19 @@ pub fn nearest<'a>(name: &str, known: impl IntoIterator<Item = &'a str>) -> Opti
         .map(|(_, k)| k.to_owned())
 }
 
+/// The parameter every term takes: a factor on everything the term adds (and on the rays it
+/// spawns), so `weight = 0.5` halves the term's image.
+pub const WEIGHT: ParamSpec =
+    ParamSpec { name: "weight", default: "1", doc: "scales everything this term contributes (every term has it)" };
+
 /// A built term with the names it was built from.
 pub struct NamedTerm {
     /// The term's name (its image's name).
     pub name: String,
     /// The variant used.
     pub variant: String,
+    /// The `weight` parameter: a factor on the term's whole contribution.
+    pub weight: f32,
     /// The system.
     pub term: Box<dyn Term>,
 }
@@ -251,9 +258,12 @@ impl Registry {
                 known: variants.iter().map(|t| t.variant.to_owned()).collect(),
             })?,
         };
-        let term = (spec.build)(&mut params).map_err(|error| ModelError::BadParam { owner: name.to_owned(), error })?;
-        unused_param(name, &params, spec.params)?;
-        Ok(NamedTerm { name: name.to_owned(), variant: spec.variant.to_owned(), term })
+        let bad = |error| ModelError::BadParam { owner: name.to_owned(), error };
+        let weight = params.number(WEIGHT.name, 1.0, 0.0, f32::MAX as f64).map_err(bad)? as f32;
+        let term = (spec.build)(&mut params).map_err(bad)?;
+        let known: Vec<ParamSpec> = spec.params.iter().copied().chain([WEIGHT]).collect();
+        unused_param(name, &params, &known)?;
+        Ok(NamedTerm { name: name.to_owned(), variant: spec.variant.to_owned(), weight, term })
     }
 
     /// Builds shadow model `name` from `params`.
@@ -273,9 +283,17 @@ impl Registry {
 
     /// Every built-in term, default variant, in the handout's order.
     pub fn default_terms(&self) -> Vec<NamedTerm> {
-        crate::terms::BUILTIN
-            .iter()
-            .map(|t| self.build_term(t.name, None, Params::default()).expect("built-in terms build without parameters"))
+        let mut names: Vec<&str> = Vec::new();
+        for t in crate::terms::BUILTIN {
+            if !names.contains(&t.name) {
+                names.push(t.name);
+            }
+        }
+        names
+            .into_iter()
+            .map(|name| {
+                self.build_term(name, None, Params::default()).expect("built-in terms build without parameters")
+            })
             .collect()
     }
 
@@ -318,7 +336,13 @@ mod tests {
         let e = r.build_shadow("transmissive", p).err().unwrap();
         assert_eq!(e.to_string(), "`transmissive`: parameter `tint`: expected a boolean, found a number");
         let p = Params::new([("x".to_owned(), ParamValue::Number(1.0))]);
-        assert!(r.build_term("ambient", None, p).err().unwrap().to_string().contains("its parameters: none"));
+        assert!(r.build_term("ambient", None, p).err().unwrap().to_string().contains("its parameters: weight"));
+        let p = Params::new([("wieght".to_owned(), ParamValue::Number(0.5))]);
+        assert!(r.build_term("diffuse", None, p).err().unwrap().to_string().contains("did you mean `weight`"));
+        let p = Params::new([("weight".to_owned(), ParamValue::Number(0.5))]);
+        assert_eq!(r.build_term("diffuse", None, p).unwrap().weight, 0.5);
+        let p = Params::new([("weight".to_owned(), ParamValue::Number(-1.0))]);
+        assert!(r.build_term("diffuse", None, p).is_err());
     }
 
     #[test]

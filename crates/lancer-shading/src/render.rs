@@ -122,6 +122,7 @@ fn render_tile(
             for (rays, hits, lights) in world.query::<(&Rays, &Hits, &LightSamples)>().iter() {
                 let mut out = TermOutput {
                     layer: layer as u16,
+                    weight: named.weight,
                     rays,
                     accum: &mut accum,
                     next: &mut next,
@@ -222,12 +223,7 @@ fn visibility_system(
                     continue;
                 }
                 let from = ctx.geometry.leave(hits.object[lane], p, n);
-                let to_light = light.at - from.point;
-                let dist = to_light.length();
-                let Some(dir) = to_light.try_normalize() else {
-                    continue;
-                };
-                samples.incoming[slot] = light.radiance() * shadows.transmittance(shadow_ctx, from, dir, dist);
+                samples.incoming[slot] = light.radiance() * shadows.transmittance(shadow_ctx, from, light);
                 queries += 1;
             }
         }

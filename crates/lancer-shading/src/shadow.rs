@@ -1,7 +1,7 @@
 //! The `ShadowModel` trait: how much of a light reaches a point.
 
 use glam::Vec3;
-use lancer_core::Material;
+use lancer_core::{Light, Material};
 use lancer_shapes::{Geometry, Origin};
 
 /// Scene data a shadow model may use.
@@ -13,6 +13,14 @@ pub struct ShadowContext<'a> {
 }
 
 impl ShadowContext<'_> {
+    /// The unit direction and distance from `from` to `target`; `None` if they coincide.
+    #[inline]
+    pub fn toward(&self, from: Origin, target: Vec3) -> Option<(Vec3, f32)> {
+        let d = target - from.point;
+        let dist = d.length();
+        (dist > 0.0).then(|| (d / dist, dist))
+    }
+
     /// The material of object `object`.
     #[inline]
     pub fn material(&self, object: u32) -> &Material {
@@ -22,7 +30,6 @@ impl ShadowContext<'_> {
 
 /// A shadow model: the fraction (per RGB channel) of a light's colour that reaches a point.
 pub trait ShadowModel: Send + Sync {
-    /// Transmittance from `from` (see [`Geometry::leave`]) along the unit direction `dir` to the
-    /// light at distance `dist`.
-    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, dir: Vec3, dist: f32) -> Vec3;
+    /// Transmittance of `light` to the point `from` (see [`Geometry::leave`]), per RGB channel.
+    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, light: &Light) -> Vec3;
 }

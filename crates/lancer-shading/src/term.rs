@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use lancer_core::rays::{CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
-use lancer_core::{Material, PointLight};
+use lancer_core::{Light, Material};
 use lancer_shapes::{Geometry, Origin};
 
 /// Read-only scene data every term may use.
@@ -12,7 +12,7 @@ pub struct ShadeContext<'a> {
     /// The material table (`Object::material` indexes it).
     pub materials: &'a [Material],
     /// The point lights, in scene order (the order of `LightSamples` entries).
-    pub lights: &'a [PointLight],
+    pub lights: &'a [Light],
     /// The recursion limit (`max_depth`).
     pub max_depth: u8,
 }
@@ -51,6 +51,7 @@ impl Chunk<'_> {
 /// ray's child (mirror or refraction), whatever term produces them deeper down.
 pub struct TermOutput<'a> {
     pub(crate) layer: u16,
+    pub(crate) weight: f32,
     pub(crate) rays: &'a Rays,
     pub(crate) accum: &'a mut [Vec<Vec3>],
     pub(crate) next: &'a mut Rays,
@@ -70,7 +71,7 @@ impl TermOutput<'_> {
     #[inline]
     pub fn add(&mut self, lane: usize, colour: Vec3) {
         let layer = self.credit(lane) as usize;
-        self.accum[layer][self.rays.pixel[lane] as usize] += self.rays.weight[lane] * colour;
+        self.accum[layer][self.rays.pixel[lane] as usize] += self.weight * self.rays.weight[lane] * colour;
     }
 
     /// Whether a child of `lane` would be within the depth limit.
@@ -83,7 +84,7 @@ impl TermOutput<'_> {
     /// `factor` times in the parent's. Does nothing past the depth limit or for a zero factor.
     #[inline]
     pub fn spawn(&mut self, lane: usize, origin: Origin, dir: Vec3, factor: Vec3) {
-        let weight = self.rays.weight[lane] * factor;
+        let weight = self.weight * self.rays.weight[lane] * factor;
         if !self.can_spawn(lane) || weight == Vec3::ZERO {
             return;
         }
@@ -113,4 +114,19 @@ pub trait Term: Send + Sync {
 #[inline]
 pub(crate) fn facing(chunk: &Chunk<'_>, lane: usize) -> (Vec3, Vec3) {
     (chunk.hits.point[lane], chunk.hits.facing_normal(lane))
+}
+
+/// `Σ f(N·w, w) · light` over the lights that reach the hit of `lane` (in front of the surface,
+/// not fully shadowed), with `n` the normal facing the ray: the loop every light-driven term
+/// needs.
+#[inline]
+pub fn sum_lights(chunk: &Chunk<'_>, lane: usize, n: Vec3, mut f: impl FnMut(f32, Vec3) -> f32) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    for (w, light) in chunk.lights.lane(lane) {
+        let nw = n.dot(w);
+        if nw > 0.0 && light != Vec3::ZERO {
+            sum += f(nw, w) * light;
+        }
+    }
+    sum
 }

@@ -10,6 +10,7 @@
 //! ```
 
 use glam::Vec3;
+use lancer_core::Light;
 use lancer_shapes::Origin;
 
 use crate::{Params, ShadowContext, ShadowModel, ShadowSpec};
@@ -25,7 +26,8 @@ pub const SPEC: ShadowSpec = ShadowSpec {
 struct Hard;
 
 impl ShadowModel for Hard {
-    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, dir: Vec3, dist: f32) -> Vec3 {
+    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, light: &Light) -> Vec3 {
+        let Some((dir, dist)) = ctx.toward(from, light.at) else { return Vec3::ONE };
         if ctx.geometry.closest_hit(from, dir, 0.0, dist).is_some() { Vec3::ZERO } else { Vec3::ONE }
     }
 }

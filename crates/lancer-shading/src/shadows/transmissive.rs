@@ -11,6 +11,7 @@
 //! ```
 
 use glam::Vec3;
+use lancer_core::Light;
 use lancer_shapes::{Origin, offset_origin};
 
 use crate::{ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
@@ -19,9 +20,13 @@ use crate::{ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 pub const SPEC: ShadowSpec = ShadowSpec {
     name: "transmissive",
     summary: "transparent occluders attenuate the light by their alpha instead of blocking it",
-    params: &[ParamSpec { name: "tint", default: "false", doc: "also filter the light by each occluder's colour" }],
-    build: |p: &mut Params| Ok(Box::new(Transmissive { tint: p.boolean("tint", false)? })),
+    params: &[TINT],
+    build: |p: &mut Params| Ok(Box::new(Transmissive { tint: p.boolean(TINT.name, false)? })),
 };
+
+/// The `tint` parameter, shared with the `soft` model.
+pub const TINT: ParamSpec =
+    ParamSpec { name: "tint", default: "false", doc: "also filter the light by each occluder's colour" };
 
 /// More crossings than this on one shadow ray count as fully blocked (a pathological stack of
 /// thin glass); it keeps the loop bounded.
@@ -32,45 +37,55 @@ struct Transmissive {
 }
 
 impl ShadowModel for Transmissive {
-    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, dir: Vec3, dist: f32) -> Vec3 {
-        let mut light = Vec3::ONE;
-        let (mut from, mut left) = (from, dist);
-        for _ in 0..MAX_CROSSINGS {
-            let Some(hit) = ctx.geometry.closest_hit(from, dir, 0.0, left) else {
-                return light;
-            };
-            let m = ctx.material(hit.object);
-            if m.alpha <= 0.0 {
-                return Vec3::ZERO;
-            }
-            light *= if self.tint { m.alpha * m.color } else { Vec3::splat(m.alpha) };
-            let p = from.point + hit.t * dir;
-            // Count each object once: jump from its entry to where the ray leaves it.
-            let past = if hit.front {
-                let inside = offset_origin(p, -hit.normal);
-                match ctx.geometry.exit(hit.object, inside, dir) {
-                    Some(exit) => ctx.geometry.leave(hit.object, inside + exit.t * dir, exit.normal),
-                    // It never ends (a plane's half-space): the light is inside it.
-                    None => return light,
-                }
-            } else {
-                ctx.geometry.leave(hit.object, p, hit.normal)
-            };
-            let moved = (past.point - from.point).dot(dir);
-            if moved >= left {
-                return light;
-            }
-            left -= moved;
-            from = past;
+    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, light: &Light) -> Vec3 {
+        match ctx.toward(from, light.at) {
+            Some((dir, dist)) => through_occluders(ctx, from, dir, dist, self.tint),
+            None => Vec3::ONE,
         }
-        Vec3::ZERO
     }
+}
+
+/// The light left after crossing every object between `from` and the point at `dist` along
+/// `dir`: each transparent object crossed multiplies it by its `alpha` (and colour with `tint`)
+/// once; an opaque one stops it.
+pub fn through_occluders(ctx: &ShadowContext<'_>, from: Origin, dir: Vec3, dist: f32, tint: bool) -> Vec3 {
+    let mut light = Vec3::ONE;
+    let (mut from, mut left) = (from, dist);
+    for _ in 0..MAX_CROSSINGS {
+        let Some(hit) = ctx.geometry.closest_hit(from, dir, 0.0, left) else {
+            return light;
+        };
+        let m = ctx.material(hit.object);
+        if m.alpha <= 0.0 {
+            return Vec3::ZERO;
+        }
+        light *= if tint { m.alpha * m.color } else { Vec3::splat(m.alpha) };
+        let p = from.point + hit.t * dir;
+        // Count each object once: jump from its entry to where the ray leaves it.
+        let past = if hit.front {
+            let inside = offset_origin(p, -hit.normal);
+            match ctx.geometry.exit(hit.object, inside, dir) {
+                Some(exit) => ctx.geometry.leave(hit.object, inside + exit.t * dir, exit.normal),
+                // It never ends (a plane's half-space): the light is inside it.
+                None => return light,
+            }
+        } else {
+            ctx.geometry.leave(hit.object, p, hit.normal)
+        };
+        let moved = (past.point - from.point).dot(dir);
+        if moved >= left {
+            return light;
+        }
+        left -= moved;
+        from = past;
+    }
+    Vec3::ZERO
 }
 
 #[cfg(test)]
 mod tests {
     use glam::{Affine3A, Vec3};
-    use lancer_core::Material;
+    use lancer_core::{Light, Material};
     use lancer_shapes::{Geometry, Object, Origin, Shape};
 
     use crate::{Params, ShadowContext};
@@ -91,7 +106,8 @@ mod tests {
             Params::default()
         };
         let m = crate::Registry::with_builtins().build_shadow(model, params).unwrap();
-        m.model.transmittance(&ctx, Origin::free(Vec3::ZERO), Vec3::Z, dist)
+        let light = Light { at: Vec3::new(0.0, 0.0, dist), color: Vec3::ONE, intensity: 1.0, size: 0.0 };
+        m.model.transmittance(&ctx, Origin::free(Vec3::ZERO), &light)
     }
 
     #[test]

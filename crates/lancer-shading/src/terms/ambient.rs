@@ -1,7 +1,8 @@
-//! `ambient` (variant `seed`): light that bathes the whole scene uniformly.
+//! `ambient`, variant `seed` (its only one, the handout's): light that bathes the whole scene
+//! uniformly.
 //!
 //! Formula: `Col += ambi · Col_Ω`, once per hit, whatever the lights.
-//! Reads: `ambi`, `color`. Parameters: none.
+//! Reads: `ambi`, `color`. Parameters: `weight` (every term has it).
 //!
 //! ```toml
 //! [model]

@@ -1,17 +1,16 @@
-//! `diffuse` (variant `lambert`): matte reflection, independent of the viewpoint.
+//! `diffuse`, variant `lambert` (the default, the handout's): matte reflection, independent of
+//! the viewpoint.
 //!
 //! Formula: `Col += diff · max(N·w, 0) · Col_Ω · Col_L` per visible light.
-//! Reads: `diff`, `color`. Parameters: none.
+//! Reads: `diff`, `color`. Parameters: `weight` (every term has it).
 //!
 //! ```toml
 //! [model]
 //! terms = ["ambient", "diffuse"]
 //! ```
 
-use glam::Vec3;
-
 use crate::term::facing;
-use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
+use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec, sum_lights};
 
 /// The spec registered as `diffuse`, variant `lambert`.
 pub const SPEC: TermSpec = TermSpec {
@@ -32,10 +31,7 @@ impl Term for Lambert {
                 continue;
             }
             let (_, n) = facing(&chunk, lane);
-            let mut sum = Vec3::ZERO;
-            for (w, light) in chunk.lights.lane(lane) {
-                sum += n.dot(w).max(0.0) * light;
-            }
+            let sum = sum_lights(&chunk, lane, n, |nw, _| nw);
             out.add(lane, m.diff * m.color * sum);
         }
     }

@@ -1,21 +1,19 @@
-//! `specular` (variant `phong`, the handout's seed form): the highlight of a shiny surface.
+//! `specular`, variant `phong` (the default: the handout's seed form): the highlight of a shiny surface.
 //!
 //! Formula, per visible light with `N·w > 0`: `w_r = 2 (N·w) N − w`,
 //! `Col += spec · shine · max(−u·w_r, 0)^(1/(1−shine)) · Col_L`.
 //! `shine = 1` means an infinite exponent: the highlight shrinks to the single mirror direction
 //! and vanishes, so it contributes nothing (never a NaN). `shine = 0` gives nothing either
 //! (`spec · shine = 0`).
-//! Reads: `spec`, `shine`. Parameters: none.
+//! Reads: `spec`, `shine`. Parameters: `weight` (every term has it).
 //!
 //! ```toml
 //! [model]
 //! terms = ["ambient", "diffuse", "specular"]
 //! ```
 
-use glam::Vec3;
-
 use crate::term::facing;
-use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
+use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec, sum_lights};
 
 /// The spec registered as `specular`, variant `phong`.
 pub const SPEC: TermSpec = TermSpec {
@@ -47,15 +45,7 @@ impl Term for Phong {
             }
             let (_, n) = facing(&chunk, lane);
             let u = chunk.rays.dir[lane];
-            let mut sum = Vec3::ZERO;
-            for (w, light) in chunk.lights.lane(lane) {
-                let nw = n.dot(w);
-                if nw <= 0.0 || light == Vec3::ZERO {
-                    continue;
-                }
-                let w_r = 2.0 * nw * n - w;
-                sum += phong_factor(m.shine, -u.dot(w_r)) * light;
-            }
+            let sum = sum_lights(&chunk, lane, n, |nw, w| phong_factor(m.shine, -u.dot(2.0 * nw * n - w)));
             out.add(lane, m.spec * sum);
         }
     }

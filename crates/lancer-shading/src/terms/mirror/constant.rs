@@ -1,8 +1,9 @@
-//! `mirror` (variant `constant`, the seed): recursive reflection of the rest of the scene.
+//! `mirror`, variant `constant` (the default, the handout's): recursive reflection of the rest
+//! of the scene, weighted by `spec`.
 //!
 //! Formula: `u_r = u − 2 (N·u) N`, trace `R_r = [I, u_r)`, `Col += spec · Col(R_r)`, until the
 //! depth reaches `max_depth`. The mirror image holds everything the reflected rays bring back.
-//! Reads: `spec`. Parameters: none.
+//! Reads: `spec`. Parameters: `weight` (every term has it).
 //!
 //! ```toml
 //! [model]

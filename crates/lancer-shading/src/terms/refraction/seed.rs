@@ -1,4 +1,5 @@
-//! `refraction` (variant `seed`): light through a transparent object.
+//! `refraction`, variant `seed` (the default, the handout's): light through a transparent
+//! object, weighted by `alpha`.
 //!
 //! Formula: entering at `I` with outward normal `N`, `u_t = VctTransmis(u, −N, 1/n)` (the normal
 //! on the transmission side); the ray crosses the object unshaded to the exit point `J` (normal
@@ -8,7 +9,7 @@
 //! goes on to the next exit, at most `max_depth` times; a ray still trapped after that brings
 //! nothing back. A ray that hits the object from inside (a camera inside glass) leaves through
 //! that surface directly.
-//! Reads: `alpha`, `n`. Parameters: none.
+//! Reads: `alpha`, `n`. Parameters: `weight` (every term has it).
 //!
 //! ```toml
 //! [model]
@@ -16,9 +17,8 @@
 //! ```
 
 use glam::Vec3;
-use lancer_core::optics::{reflect, vct_transmis};
-use lancer_shapes::{Origin, offset_origin};
 
+use super::passage;
 use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `refraction`, variant `seed`.
@@ -41,46 +41,11 @@ impl Term for Refraction {
             }
             let object = chunk.hits.object[lane];
             let (p, n_out, u) = (chunk.hits.point[lane], chunk.hits.normal[lane], chunk.rays.dir[lane]);
-            if let Some((origin, dir)) = through(ctx, object, p, n_out, u, m.n, chunk.hits.front[lane]) {
-                out.spawn(lane, origin, dir, Vec3::splat(m.alpha));
+            if let Some(t) = passage(ctx, object, p, n_out, u, m.n, chunk.hits.front[lane]) {
+                out.spawn(lane, t.from, t.dir, Vec3::splat(m.alpha));
             }
         }
     }
-}
-
-/// The ray `R_t` that leaves the object after entering it at `p` (or, with `front = false`,
-/// reaching its surface at `p` from inside). `None` when it never leaves.
-pub fn through(
-    ctx: &ShadeContext<'_>,
-    object: u32,
-    p: Vec3,
-    n_out: Vec3,
-    u: Vec3,
-    n: f32,
-    front: bool,
-) -> Option<(Origin, Vec3)> {
-    // (position on the surface, direction inside, outward normal there)
-    let (mut pos, mut dir, mut normal) = if front {
-        let u_t = vct_transmis(u, -n_out, 1.0 / n)?;
-        let inside = offset_origin(p, -n_out);
-        let exit = ctx.geometry.exit(object, inside, u_t)?;
-        (inside + exit.t * u_t, u_t, exit.normal)
-    } else {
-        (p, u, n_out)
-    };
-    for _ in 0..=ctx.max_depth {
-        match vct_transmis(dir, normal, n) {
-            Some(v_t) => return Some((ctx.geometry.leave(object, pos, normal), v_t)),
-            None => {
-                dir = reflect(dir, normal);
-                let inside = offset_origin(pos, -normal);
-                let exit = ctx.geometry.exit(object, inside, dir)?;
-                pos = inside + exit.t * dir;
-                normal = exit.normal;
-            }
-        }
-    }
-    None
 }
 
 #[cfg(test)]
@@ -88,8 +53,8 @@ mod tests {
     use glam::{Affine3A, Vec3};
     use lancer_shapes::{Geometry, Object, Shape};
 
-    use super::through;
     use crate::ShadeContext;
+    use crate::terms::refraction::passage;
 
     fn ctx(geometry: &Geometry) -> ShadeContext<'_> {
         ShadeContext { geometry, materials: &[], lights: &[], max_depth: 5 }
@@ -102,7 +67,9 @@ mod tests {
     #[test]
     fn along_a_diameter_the_ray_goes_straight_through_the_sphere() {
         let g = glass(Shape::Sphere, Affine3A::from_translation(Vec3::new(0.0, 0.0, 5.0)));
-        let (from, dir) = through(&ctx(&g), 0, Vec3::new(0.0, 0.0, 4.0), -Vec3::Z, Vec3::Z, 1.5, true).unwrap();
+        let t = passage(&ctx(&g), 0, Vec3::new(0.0, 0.0, 4.0), -Vec3::Z, Vec3::Z, 1.5, true).unwrap();
+        let (from, dir) = (t.from, t.dir);
+        assert!((t.length - 2.0).abs() < 1e-3);
         assert!((dir - Vec3::Z).length() < 1e-6);
         assert!((from.point - Vec3::new(0.0, 0.0, 6.0)).length() < 1e-3, "leaves at the far pole: {}", from.point);
     }
@@ -114,7 +81,8 @@ mod tests {
         let (n, theta) = (1.5f32, 50f32.to_radians());
         let u = Vec3::new(theta.sin(), -theta.cos(), 0.0);
         let entry = Vec3::new(0.0, 1.0, 0.0);
-        let (from, dir) = through(&ctx(&g), 0, entry, Vec3::Y, u, n, true).unwrap();
+        let t = passage(&ctx(&g), 0, entry, Vec3::Y, u, n, true).unwrap();
+        let (from, dir) = (t.from, t.dir);
         assert!((dir - u).length() < 1e-5, "leaves parallel to itself: {dir} vs {u}");
         // Inside, sin θt = sin θ / n; the exit is at x = 2 tan θt below the entry.
         let theta_t = (theta.sin() / n).asin();
@@ -128,7 +96,8 @@ mod tests {
         // critical angle (24.6°): it must reflect there and leave through the bottom face.
         let g = glass(Shape::Cube, Affine3A::IDENTITY);
         let u = Vec3::new(0.9, -0.2, 0.0).normalize();
-        let (from, dir) = through(&ctx(&g), 0, Vec3::new(0.5, 1.0, 0.0), Vec3::Y, u, 2.4, true).unwrap();
+        let t = passage(&ctx(&g), 0, Vec3::new(0.5, 1.0, 0.0), Vec3::Y, u, 2.4, true).unwrap();
+        let (from, dir) = (t.from, t.dir);
         assert!(dir.is_finite() && (dir.length() - 1.0).abs() < 1e-5);
         assert!(from.point.is_finite());
         // A reflection off the +x face sends it back towards -x.
@@ -143,9 +112,9 @@ mod tests {
         let g = glass(Shape::Sphere, Affine3A::IDENTITY);
         let alpha = 70f32.to_radians();
         let d = Vec3::new(alpha.cos(), alpha.sin(), 0.0);
-        assert_eq!(through(&ctx(&g), 0, Vec3::X, Vec3::X, d, 2.4, false), None);
+        assert_eq!(passage(&ctx(&g), 0, Vec3::X, Vec3::X, d, 2.4, false), None);
         // Below the critical angle it leaves at once.
         let d = Vec3::new(20f32.to_radians().cos(), 20f32.to_radians().sin(), 0.0);
-        assert!(through(&ctx(&g), 0, Vec3::X, Vec3::X, d, 2.4, false).is_some());
+        assert!(passage(&ctx(&g), 0, Vec3::X, Vec3::X, d, 2.4, false).is_some());
     }
 }

@@ -1,0 +1,207 @@
+//! The `lancer` command: flags, reading scene and model files, the thread pool, progress, and
+//! writing images. [`main_with`] runs it with any registry, so a crate that registers its own
+//! terms gets the whole command line for free.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use crate::output::{Format, write_atomic};
+use lancer_core::Frame;
+use lancer_core::frame::BACKGROUND;
+use lancer_shading::{Params, Pipeline, Registry, RenderOptions};
+
+/// The scene rendered when no scene file is given (`scenes/showcase.toml`, embedded).
+pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/showcase.toml");
+const DEFAULT_SCENE_NAME: &str = "scenes/showcase.toml (embedded default)";
+
+#[derive(Parser)]
+#[command(
+    name = "lancer",
+    version,
+    about = "Lancer: a Whitted ray tracer whose illumination model is a list of pluggable terms"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene (the embedded showcase when no SCENE is given).
+    Render(RenderArgs),
+    /// List every registered term, its variants and parameters, and every shadow model.
+    Terms,
+}
+
+#[derive(Args, Default)]
+struct RenderArgs {
+    /// Scene file (TOML); the embedded showcase when absent.
+    scene: Option<PathBuf>,
+    /// Beauty image: .png (sRGB 8-bit) or .exr (linear float).
+    #[arg(short, long, default_value = "render.png")]
+    output: PathBuf,
+    /// Also write DIR/<term>.exr and DIR/<term>.png for every term, and DIR/beauty.{exr,png}.
+    #[arg(long, value_name = "DIR")]
+    aov: Option<PathBuf>,
+    /// Replace the scene's [model] with this model file.
+    #[arg(long, value_name = "FILE")]
+    model: Option<PathBuf>,
+    /// Replace the model's terms (keeping its shadows and depth): names in order, each with an
+    /// optional variant, e.g. `ambient,diffuse,specular:blinn`.
+    #[arg(long, value_name = "TERM[:VARIANT],...", value_delimiter = ',')]
+    terms: Option<Vec<String>>,
+    /// Image width (the height follows the scene's aspect ratio unless --height is given).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: Option<u32>,
+    /// Image height (the width follows the scene's aspect ratio unless --width is given).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: Option<u32>,
+    /// Samples per pixel (anti-aliasing), overriding the scene's.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    samples: Option<u32>,
+    /// Worker threads (default: one per core). The image is identical for any count.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// No progress bar or summary line.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+/// Runs the `lancer` command line (`std::env::args`) with `registry`'s terms and shadow models;
+/// errors are printed on stderr. Call it from `main` after registering your own terms.
+pub fn main_with(registry: Registry) -> ExitCode {
+    match run(Cli::parse(), &registry) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli, registry: &Registry) -> Result<()> {
+    match cli.command {
+        None => render(registry, RenderArgs { output: "render.png".into(), ..RenderArgs::default() }),
+        Some(Command::Render(args)) => render(registry, args),
+        Some(Command::Terms) => {
+            print!("{}", crate::listing::terms(registry));
+            Ok(())
+        }
+    }
+}
+
+fn read(path: &Path, what: &str) -> Result<String> {
+    std::fs::read_to_string(path).with_context(|| format!("reading {what} {}", path.display()))
+}
+
+fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
+    // Check every output path before the (long) render, so a typo costs nothing.
+    let format = Format::of(&args.output)?;
+    let (src, name) = match &args.scene {
+        Some(p) => (read(p, "scene")?, p.display().to_string()),
+        None => (DEFAULT_SCENE.to_owned(), DEFAULT_SCENE_NAME.to_owned()),
+    };
+    let loaded = lancer_scene::load_scene(&src, &name, registry).map_err(anyhow::Error::msg)?;
+    let mut scene = loaded.scene;
+    let mut pipeline = match &args.model {
+        Some(p) => lancer_scene::load_model(&read(p, "model")?, &p.display().to_string(), registry)
+            .map_err(anyhow::Error::msg)?,
+        None => loaded.pipeline,
+    };
+    if let Some(list) = &args.terms {
+        let mut terms = Vec::with_capacity(list.len());
+        for entry in list {
+            let (name, variant) = match entry.split_once(':') {
+                Some((n, v)) => (n.trim(), Some(v.trim())),
+                None => (entry.trim(), None),
+            };
+            let term = registry.build_term(name, variant, Params::default()).with_context(|| format!("in --terms {entry}"))?;
+            terms.push(term);
+        }
+        pipeline = Pipeline::new(pipeline.max_depth, pipeline.shadows, terms).context("in --terms")?;
+    }
+    let img = &mut scene.image;
+    let aspect = img.width as f64 / img.height as f64;
+    match (args.width, args.height) {
+        (Some(w), Some(h)) => (img.width, img.height) = (w, h),
+        (Some(w), None) => (img.width, img.height) = (w, ((w as f64 / aspect).round() as u32).max(1)),
+        (None, Some(h)) => (img.width, img.height) = (((h as f64 * aspect).round() as u32).max(1), h),
+        (None, None) => {}
+    }
+    if let Some(s) = args.samples {
+        img.samples = s;
+    }
+    if let Some(dir) = &args.aov {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating AOV directory {}", dir.display()))?;
+    }
+
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0) as usize)
+        .build()
+        .context("starting worker threads")?;
+    let bar = if args.quiet { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(0) };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} rendering [{bar:40}] {pos}/{len} tiles, {eta} left")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+    let start = Instant::now();
+    let frame = pool
+        .install(|| lancer_shading::render(&scene, &pipeline, RenderOptions { progress: Some(&progress) }))
+        .with_context(|| format!("preparing {name}"))?;
+    let elapsed = start.elapsed();
+    bar.finish_and_clear();
+
+    let beauty = frame.beauty();
+    write_atomic(&args.output, &format.encode(frame.width, frame.height, &beauty)?)?;
+    if let Some(dir) = &args.aov {
+        write_aovs(dir, &frame, &beauty)?;
+    }
+    if !args.quiet {
+        eprintln!(
+            "rendered {name} at {}x{} ({} spp, {} terms) in {:.3} s: {:.2} M rays ({} camera, {} secondary, {} shadow), {:.1} M rays/s -> {}{}",
+            frame.width,
+            frame.height,
+            scene.image.samples,
+            pipeline.terms.len(),
+            elapsed.as_secs_f64(),
+            frame.stats.total() as f64 / 1e6,
+            frame.stats.camera_rays,
+            frame.stats.secondary_rays,
+            frame.stats.shadow_rays,
+            frame.stats.total() as f64 / 1e6 / elapsed.as_secs_f64().max(1e-9),
+            args.output.display(),
+            args.aov.as_ref().map(|d| format!(" and {}/", d.display())).unwrap_or_default()
+        );
+    }
+    Ok(())
+}
+
+/// One EXR and one PNG per term, the background layer when it is not black, and the beauty image.
+fn write_aovs(dir: &Path, frame: &Frame, beauty: &[glam::Vec3]) -> Result<()> {
+    let mut images: Vec<(&str, &[glam::Vec3])> = Vec::new();
+    for layer in &frame.layers {
+        if layer.name == BACKGROUND && layer.pixels.iter().all(|p| *p == glam::Vec3::ZERO) {
+            continue;
+        }
+        if layer.name == "beauty" {
+            bail!("a term named `beauty` would overwrite the beauty image");
+        }
+        images.push((&layer.name, &layer.pixels));
+    }
+    images.push(("beauty", beauty));
+    for (name, pixels) in images {
+        for format in [Format::Exr, Format::Png] {
+            let ext = if format == Format::Exr { "exr" } else { "png" };
+            write_atomic(&dir.join(format!("{name}.{ext}")), &format.encode(frame.width, frame.height, pixels)?)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,9 @@
+//! The `diffuse` term's variants: matte reflection.
+//!
+//! | variant | formula per light |
+//! |---|---|
+//! | `lambert` (default, the handout's) | `diff · (N·w) · Col_Ω · Col_L` |
+//! | `oren-nayar` | Lambert times `A + B · max(0, cos(φ_i − φ_r)) · sin α · tan β` (rough surfaces) |
+
+pub mod lambert;
+pub mod oren_nayar;

@@ -1,0 +1,98 @@
+//! `refraction`, variant `fresnel`: the transparent surface splits light by the Fresnel
+//! equations, and the glass may absorb (Beer–Lambert).
+//!
+//! Formula: at the entry `I`, with `R_in = F(cos θ, 1 → n)` the exact unpolarised dielectric
+//! reflectance, a reflected ray `R_r` gets weight `alpha · R_in` and the refracted light
+//! `alpha · (1 − R_in)`; at the exit `J` the part `1 − R_out`, `R_out = F(cos θ_J, n → 1)`, leaves
+//! (total internal reflection: `R_out = 1`, the ray goes on inside as in `seed`; the internally
+//! reflected part of a partial reflection is not followed). With `absorb = d > 0`, light inside is
+//! filtered by the object's colour once per distance `d`: a factor `Col_Ω^(length / d)`.
+//! `Col += alpha · (R_in · Col(R_r) + (1 − R_in)(1 − R_out) · absorption · Col(R_t))`.
+//! Reads: `alpha`, `n`, `color` (with `absorb`). Parameters: `absorb` (default 0: off), `weight`.
+//!
+//! ```toml
+//! [model]
+//! terms = ["ambient", "diffuse", "specular", { term = "refraction", variant = "fresnel", absorb = 2.0 }]
+//! ```
+
+use glam::Vec3;
+use lancer_core::optics::{fresnel_dielectric, reflect};
+
+use super::passage;
+use crate::term::facing;
+use crate::{Chunk, ParamSpec, Params, ShadeContext, Term, TermOutput, TermSpec};
+
+/// The spec registered as `refraction`, variant `fresnel`.
+pub const SPEC: TermSpec = TermSpec {
+    name: "refraction",
+    variant: "fresnel",
+    summary: "alpha · (R·Col(R_r) + T·Col(R_t)): Fresnel split at each surface, optional absorption",
+    params: &[ParamSpec {
+        name: "absorb",
+        default: "0",
+        doc: "distance over which the glass filters light by its colour once (0: no absorption)",
+    }],
+    build: |p: &mut Params| Ok(Box::new(Fresnel { absorb: p.number("absorb", 0.0, 0.0, 1e9)? as f32 })),
+};
+
+struct Fresnel {
+    absorb: f32,
+}
+
+/// The split of light arriving at a surface with `cos θ = |N·u|`, entering (`front`, from 1 into
+/// `n`) or leaving (from `n` into 1): `(reflected, transmitted)`, which always sum to 1.
+pub fn split(cos: f32, n: f32, front: bool) -> (f32, f32) {
+    let r = if front { fresnel_dielectric(cos, 1.0, n) } else { fresnel_dielectric(cos, n, 1.0) };
+    (r, 1.0 - r)
+}
+
+impl Term for Fresnel {
+    fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        for lane in chunk.hit_lanes() {
+            let m = ctx.material(chunk.hits, lane);
+            if m.alpha <= 0.0 || !out.can_spawn(lane) {
+                continue;
+            }
+            let (object, front) = (chunk.hits.object[lane], chunk.hits.front[lane]);
+            let (p, n_facing) = facing(&chunk, lane);
+            let u = chunk.rays.dir[lane];
+            let (r_in, t_in) = split(n_facing.dot(u), m.n, front);
+            if front && r_in > 0.0 {
+                let from = ctx.geometry.leave(object, p, n_facing);
+                out.spawn(lane, from, reflect(u, n_facing), Vec3::splat(m.alpha * r_in));
+            }
+            let Some(t) = passage(ctx, object, p, chunk.hits.normal[lane], u, m.n, front) else { continue };
+            // Leaving from inside, the entry split already was the exit's.
+            let t_out = if front { split(t.exit_cos, m.n, false).1 } else { 1.0 };
+            let absorption = if self.absorb > 0.0 { m.color.powf(t.length / self.absorb) } else { Vec3::ONE };
+            out.spawn(lane, t.from, t.dir, m.alpha * t_in * t_out * absorption);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::split;
+    use lancer_core::optics::critical_angle;
+
+    #[test]
+    fn reflected_and_transmitted_always_sum_to_one() {
+        for k in 0..=100 {
+            let cos = k as f32 / 100.0;
+            for (n, front) in [(1.5, true), (1.5, false), (2.4, true), (2.4, false), (1.0, true)] {
+                let (r, t) = split(cos, n, front);
+                assert!((r + t - 1.0).abs() < 1e-6 && r >= 0.0 && t >= 0.0, "cos {cos}, n {n}, front {front}");
+            }
+        }
+        assert!((split(1.0, 1.5, true).0 - 0.04).abs() < 1e-6);
+    }
+
+    #[test]
+    fn past_the_critical_angle_everything_is_reflected() {
+        let crit = critical_angle(1.5, 1.0).unwrap();
+        assert_eq!(split((crit + 0.01).cos(), 1.5, false), (1.0, 0.0));
+        assert!(split((crit - 0.01).cos(), 1.5, false).1 > 0.0);
+        // Entering a denser medium there is no critical angle.
+        assert!(split(0.01, 1.5, true).1 > 0.0);
+    }
+}

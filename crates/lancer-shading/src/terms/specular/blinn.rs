@@ -1,0 +1,45 @@
+//! `specular`, variant `blinn`: Blinn-Phong's half-vector highlight.
+//!
+//! Formula, per visible light with `N·w > 0`: `h = normalize(w − u)`,
+//! `Col += spec · shine · (N·h)^e · Col_L`, with `e = exponent` if given, else `4 / (1 − shine)`
+//! (see [`super::blinn_exponent`]: about the seed highlight's size). `shine = 1` with no
+//! `exponent` gives no highlight; `shine = 0` gives none either (`spec · shine = 0`).
+//! Reads: `spec`, `shine`. Parameters: `exponent` (default derived from `shine`), `weight`.
+//!
+//! ```toml
+//! [model]
+//! terms = ["ambient", "diffuse", { term = "specular", variant = "blinn", exponent = 64 }]
+//! ```
+
+use super::{EXPONENT, blinn_exponent, half_vector_lobe, read_exponent};
+use crate::term::facing;
+use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec, sum_lights};
+
+/// The spec registered as `specular`, variant `blinn`.
+pub const SPEC: TermSpec = TermSpec {
+    name: "specular",
+    variant: "blinn",
+    summary: "spec · shine · (N·h)^e · Col_L: Blinn-Phong's half-vector highlight",
+    params: &[EXPONENT],
+    build: |p: &mut Params| Ok(Box::new(Blinn { exponent: read_exponent(p)? })),
+};
+
+struct Blinn {
+    exponent: Option<f32>,
+}
+
+impl Term for Blinn {
+    fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        for lane in chunk.hit_lanes() {
+            let m = ctx.material(chunk.hits, lane);
+            if m.spec <= 0.0 || m.shine <= 0.0 {
+                continue;
+            }
+            let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { continue };
+            let (_, n) = facing(&chunk, lane);
+            let u = chunk.rays.dir[lane];
+            let sum = sum_lights(&chunk, lane, n, |_, w| half_vector_lobe(n, w, u, e));
+            out.add(lane, m.spec * m.shine * sum);
+        }
+    }
+}

@@ -1,0 +1,49 @@
+//! `specular`, variant `blinn-normalized`: energy-normalised Blinn-Phong.
+//!
+//! Formula, per visible light with `N·w > 0`: `h = normalize(w − u)`,
+//! `Col += spec · (e + 8)/(8π) · (N·h)^e · (N·w) · Col_L`. The factor `(e + 8)/(8π)` keeps the
+//! reflected energy about constant as `e` changes: sharper highlights get brighter peaks, not
+//! just smaller spots. `e` is `exponent` if given, else `4 / (1 − shine)`; here `spec` alone sets
+//! the strength (`shine` only the sharpness), and `shine = 1` with no `exponent` gives nothing.
+//! Reads: `spec`, `shine`. Parameters: `exponent` (default derived from `shine`), `weight`.
+//!
+//! ```toml
+//! [model]
+//! terms = ["ambient", "diffuse", { term = "specular", variant = "blinn-normalized" }]
+//! ```
+
+use std::f32::consts::PI;
+
+use super::{EXPONENT, blinn_exponent, half_vector_lobe, read_exponent};
+use crate::term::facing;
+use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec, sum_lights};
+
+/// The spec registered as `specular`, variant `blinn-normalized`.
+pub const SPEC: TermSpec = TermSpec {
+    name: "specular",
+    variant: "blinn-normalized",
+    summary: "spec · (e+8)/(8π) · (N·h)^e · (N·w) · Col_L: energy-normalised Blinn-Phong",
+    params: &[EXPONENT],
+    build: |p: &mut Params| Ok(Box::new(BlinnNormalized { exponent: read_exponent(p)? })),
+};
+
+struct BlinnNormalized {
+    exponent: Option<f32>,
+}
+
+impl Term for BlinnNormalized {
+    fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        for lane in chunk.hit_lanes() {
+            let m = ctx.material(chunk.hits, lane);
+            if m.spec <= 0.0 {
+                continue;
+            }
+            let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { continue };
+            let (_, n) = facing(&chunk, lane);
+            let u = chunk.rays.dir[lane];
+            let norm = (e + 8.0) / (8.0 * PI);
+            let sum = sum_lights(&chunk, lane, n, |nw, w| norm * half_vector_lobe(n, w, u, e) * nw);
+            out.add(lane, m.spec * sum);
+        }
+    }
+}

@@ -1,0 +1,68 @@
+//! The `specular` term's variants: the highlight of a shiny surface.
+//!
+//! | variant | lobe | strength |
+//! |---|---|---|
+//! | `phong` (default, the handout's) | `(−u·w_r)^(1/(1−shine))` | `spec · shine` |
+//! | `blinn` | `(N·h)^e`, `h = normalize(w − u)` | `spec · shine` |
+//! | `blinn-normalized` | `(e + 8)/(8π) · (N·h)^e · (N·w)` | `spec` |
+
+pub mod blinn;
+pub mod blinn_normalized;
+pub mod phong;
+
+use glam::Vec3;
+
+/// The Blinn exponent Lancer derives from `shine` when no `exponent` is given: `4 / (1 − shine)`,
+/// four times the seed's Phong exponent. The half vector's angle to `N` is about half the
+/// mirror direction's angle to the view, and `cos(x/2)^(4e) ≈ cos(x)^e` near the peak, so both
+/// variants give highlights of about the same size. `None` (no highlight) for `shine ≥ 1`.
+#[inline]
+pub fn blinn_exponent(shine: f32) -> Option<f32> {
+    (shine < 1.0).then(|| 4.0 / (1.0 - shine))
+}
+
+/// `(N·h)^e` with `h = normalize(w − u)`, guarded: 0 when the half vector is undefined (light
+/// exactly behind the viewer's direction) or faces away.
+#[inline]
+pub fn half_vector_lobe(n: Vec3, w: Vec3, u: Vec3, e: f32) -> f32 {
+    match (w - u).try_normalize() {
+        Some(h) => n.dot(h).clamp(0.0, 1.0).powf(e),
+        None => 0.0,
+    }
+}
+
+/// The optional `exponent` parameter shared by both Blinn variants.
+pub(crate) const EXPONENT: crate::ParamSpec = crate::ParamSpec {
+    name: "exponent",
+    default: "4/(1−shine) per material",
+    doc: "fixed highlight exponent for every material, instead of one derived from shine",
+};
+
+pub(crate) fn read_exponent(p: &mut crate::Params) -> Result<Option<f32>, crate::ParamError> {
+    let e = p.number(EXPONENT.name, 0.0, 0.0, 1e6)?;
+    Ok((e > 0.0).then_some(e as f32))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blinn_peaks_where_phong_does_with_about_the_same_width() {
+        // Viewer in the light's mirror direction: both lobes are 1.
+        let n = Vec3::Y;
+        let w = Vec3::new(1.0, 1.0, 0.0).normalize();
+        let u = -Vec3::new(-1.0, 1.0, 0.0).normalize();
+        let e = blinn_exponent(0.9).unwrap();
+        let peak = half_vector_lobe(n, w, u, e);
+        assert!((peak - 1.0).abs() < 1e-5, "peak {peak}");
+        // 5° off the mirror direction: the Blinn lobe falls about as fast as Phong's.
+        let off = 5f32.to_radians();
+        let v = Vec3::new(-(45f32.to_radians() + off).sin(), (45f32.to_radians() + off).cos(), 0.0);
+        let phong = off.cos().powf(1.0 / (1.0 - 0.9));
+        let blinn = half_vector_lobe(n, w, -v, e);
+        assert!((phong - blinn).abs() < 0.02, "phong {phong}, blinn {blinn}");
+        assert_eq!(blinn_exponent(1.0), None);
+        assert_eq!(half_vector_lobe(n, w, w, 8.0), 0.0, "undefined half vector");
+    }
+}
