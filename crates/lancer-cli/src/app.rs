@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
+use crate::output::{Format, write_atomic};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
-use crate::output::{Format, write_atomic};
 use lancer_core::Frame;
 use lancer_core::frame::BACKGROUND;
 use lancer_shading::{Params, Pipeline, Registry, RenderOptions};
@@ -118,7 +118,8 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
                 Some((n, v)) => (n.trim(), Some(v.trim())),
                 None => (entry.trim(), None),
             };
-            let term = registry.build_term(name, variant, Params::default()).with_context(|| format!("in --terms {entry}"))?;
+            let term =
+                registry.build_term(name, variant, Params::default()).with_context(|| format!("in --terms {entry}"))?;
             terms.push(term);
         }
         pipeline = Pipeline::new(pipeline.max_depth, pipeline.shadows, terms).context("in --terms")?;
