@@ -31,6 +31,32 @@ fn swapping_the_specular_variant_changes_the_specular_image_only_among_camera_te
 }
 
 #[test]
+fn without_recursion_a_specular_swap_changes_the_specular_image_and_nothing_else() {
+    // With mirror and refraction on, their images also carry the highlights seen in reflections;
+    // without them, the specular image is the only one that may change.
+    let model = |variant: &str| {
+        format!(
+            "max_depth = 0\nterms = [\"ambient\", \"diffuse\", {{ term = \"specular\", variant = \"{variant}\" }}]\n"
+        )
+    };
+    let mut loaded = load_file(std::path::Path::new("scenes/showcase.toml"));
+    let registry = Registry::with_builtins();
+    loaded.pipeline = lancer_scene::load_model(&model("phong"), "phong", &registry).unwrap();
+    let phong = render(&loaded, Some(128), 2);
+    loaded.pipeline = lancer_scene::load_model(&model("blinn"), "blinn", &registry).unwrap();
+    let blinn = render(&loaded, Some(128), 2);
+    for (a, b) in phong.layers.iter().zip(&blinn.layers) {
+        assert_eq!(a.name, b.name);
+        assert!(
+            (a == b) == (a.name != "specular"),
+            "layer {} {}",
+            a.name,
+            if a == b { "unchanged" } else { "changed" }
+        );
+    }
+}
+
+#[test]
 fn the_seed_model_file_is_the_handouts_default_model() {
     let default = render(&load_file(std::path::Path::new("scenes/mirrors.toml")), Some(160), 2);
     let seed = with_model("scenes/mirrors.toml", "models/seed.toml");

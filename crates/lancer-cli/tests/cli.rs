@@ -149,3 +149,58 @@ fn a_model_file_replaces_the_scenes_model() {
         ["ambient.exr", "ambient.png", "background.exr", "background.png", "beauty.exr", "beauty.png"]
     );
 }
+
+#[test]
+fn a_bad_model_file_names_the_unknown_variant_or_parameter_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    // (model file, the text the error must point at, the message)
+    let cases = [
+        (
+            "terms = [{ term = \"specular\", variant = \"blin\" }]\n",
+            "\"blin\"",
+            "term `specular` has no variant `blin` (did you mean `blinn`?)",
+        ),
+        (
+            "terms = [{ term = \"specular\", variant = \"blinn\", exponnent = 8 }]\n",
+            "exponnent",
+            "`specular` has no parameter `exponnent` (did you mean `exponent`?)",
+        ),
+        (
+            "shadows = { model = \"soft\", samples = 10 }\n",
+            "10",
+            "`soft`: parameter `samples`: expected a square number such as 4, 16 or 64, found 10",
+        ),
+        (
+            "terms = [{ term = \"diffuse\", weight = -1 }]\n",
+            "-1",
+            "`diffuse`: parameter `weight`: expected a number in [0,",
+        ),
+    ];
+    for (model, at, message) in cases {
+        std::fs::write(dir.path().join("m.toml"), model).unwrap();
+        let o = lancer(dir.path(), &["render", "--model", "m.toml", "--aov", "aov"]);
+        assert_eq!(o.status.code(), Some(1), "{model}");
+        let expected = format!("error: m.toml:1:{}: {message}", model.find(at).unwrap() + 1);
+        assert!(stderr(&o).starts_with(&expected), "{model}: expected {expected}\n{}", stderr(&o));
+        assert_eq!(files(dir.path()), ["m.toml"], "nothing written for {model}");
+    }
+}
+
+#[test]
+fn terms_flag_picks_terms_and_variants() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = lancer(
+        dir.path(),
+        &["render", "--terms", "diffuse,specular:blinn-normalized", "--width", "48", "--aov", "aov", "-q"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let want = ["background", "beauty", "diffuse", "specular"];
+    assert_eq!(
+        files(&dir.path().join("aov")),
+        want.iter().flat_map(|n| [format!("{n}.exr"), format!("{n}.png")]).collect::<Vec<_>>()
+    );
+    let o = lancer(dir.path(), &["render", "--terms", "diffuse,specullar", "-o", "x.png"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("unknown term `specullar` (did you mean `specular`?)"), "{}", stderr(&o));
+    assert!(!dir.path().join("x.png").exists());
+}
