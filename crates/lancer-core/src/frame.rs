@@ -22,7 +22,8 @@ pub struct RenderStats {
     pub camera_rays: u64,
     /// Child rays (mirror, refraction), traced from generation 1 on.
     pub secondary_rays: u64,
-    /// Light visibility queries handed to the shadow model (one per hit and light in front).
+    /// Shadow rays the shadow model traced (one per light in front of a hit for `hard`; one per
+    /// occluder crossed for `transmissive`; per sample for `soft`).
     pub shadow_rays: u64,
 }
 

@@ -106,7 +106,7 @@ fn render_tile(
     let pixels = (tile.w * tile.h) as usize;
     let background_layer = pipeline.terms.len();
     let mut accum = vec![vec![Vec3::ZERO; pixels]; background_layer + 1];
-    let shadow_ctx = ShadowContext { geometry: ctx.geometry, materials: ctx.materials };
+    let shadow_ctx = ShadowContext::new(ctx.geometry, ctx.materials);
     let mut world = hecs::World::new();
     let mut stats = RenderStats::default();
 
@@ -115,7 +115,7 @@ fn render_tile(
     spawn_chunks(&mut world, primary, ctx.lights.len());
     loop {
         trace_system(&mut world, ctx);
-        stats.shadow_rays += visibility_system(&mut world, ctx, &shadow_ctx, pipeline);
+        visibility_system(&mut world, ctx, &shadow_ctx, pipeline);
         background_system(&world, image.background, background_layer, &mut accum);
         let mut next = Rays::default();
         for (layer, named) in pipeline.terms.iter().enumerate() {
@@ -133,6 +133,7 @@ fn render_tile(
         }
         world.clear();
         if next.is_empty() {
+            stats.shadow_rays = shadow_ctx.rays();
             return (accum, stats);
         }
         stats.secondary_rays += next.len() as u64;
@@ -197,16 +198,14 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
 }
 
 /// For every hit and light: the direction to the light and the light arriving through the
-/// pipeline's shadow model. Lights behind the surface (`N·w <= 0`) send nothing. Returns the
-/// number of shadow queries.
+/// pipeline's shadow model. Lights behind the surface (`N·w <= 0`) send nothing.
 fn visibility_system(
     world: &mut hecs::World,
     ctx: &ShadeContext<'_>,
     shadow_ctx: &ShadowContext<'_>,
     pipeline: &Pipeline,
-) -> u64 {
+) {
     let shadows = &pipeline.shadows.model;
-    let mut queries = 0;
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         for lane in 0..hits.object.len() {
             if hits.object[lane] == NO_HIT {
@@ -224,11 +223,9 @@ fn visibility_system(
                 }
                 let from = ctx.geometry.leave(hits.object[lane], p, n);
                 samples.incoming[slot] = light.radiance() * shadows.transmittance(shadow_ctx, from, light);
-                queries += 1;
             }
         }
     }
-    queries
 }
 
 /// Rays that hit nothing see the background: a camera ray's goes to the background layer, a

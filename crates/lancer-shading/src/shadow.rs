@@ -1,18 +1,39 @@
 //! The `ShadowModel` trait: how much of a light reaches a point.
 
+use std::cell::Cell;
+
 use glam::Vec3;
 use lancer_core::{Light, Material};
 use lancer_shapes::{Geometry, Origin};
 
-/// Scene data a shadow model may use.
+/// Scene data a shadow model may use, and a count of the shadow rays it traces.
 pub struct ShadowContext<'a> {
     /// The scene's objects.
     pub geometry: &'a Geometry,
     /// The material table.
     pub materials: &'a [Material],
+    rays: Cell<u64>,
 }
 
-impl ShadowContext<'_> {
+impl<'a> ShadowContext<'a> {
+    /// A context over `geometry` and `materials`, with no ray traced yet.
+    pub fn new(geometry: &'a Geometry, materials: &'a [Material]) -> ShadowContext<'a> {
+        ShadowContext { geometry, materials, rays: Cell::new(0) }
+    }
+
+    /// The closest object between `from` and the distance `dist` along `dir`: a shadow ray,
+    /// counted in [`ShadowContext::rays`].
+    #[inline]
+    pub fn occluder(&self, from: Origin, dir: Vec3, dist: f32) -> Option<lancer_shapes::Hit> {
+        self.rays.set(self.rays.get() + 1);
+        self.geometry.closest_hit(from, dir, 0.0, dist)
+    }
+
+    /// How many shadow rays were traced through this context.
+    pub fn rays(&self) -> u64 {
+        self.rays.get()
+    }
+
     /// The unit direction and distance from `from` to `target`; `None` if they coincide.
     #[inline]
     pub fn toward(&self, from: Origin, target: Vec3) -> Option<(Vec3, f32)> {

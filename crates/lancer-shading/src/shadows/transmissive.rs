@@ -52,7 +52,7 @@ pub fn through_occluders(ctx: &ShadowContext<'_>, from: Origin, dir: Vec3, dist:
     let mut light = Vec3::ONE;
     let (mut from, mut left) = (from, dist);
     for _ in 0..MAX_CROSSINGS {
-        let Some(hit) = ctx.geometry.closest_hit(from, dir, 0.0, left) else {
+        let Some(hit) = ctx.occluder(from, dir, left) else {
             return light;
         };
         let m = ctx.material(hit.object);
@@ -99,7 +99,7 @@ mod tests {
         let opaque = Material::default();
         let g = Geometry::new(objects);
         let materials = [glass, opaque];
-        let ctx = ShadowContext { geometry: &g, materials: &materials };
+        let ctx = ShadowContext::new(&g, &materials);
         let params = if model == "transmissive" {
             Params::new([("tint".to_owned(), crate::ParamValue::Bool(tint))])
         } else {
