@@ -68,3 +68,24 @@ fn every_built_in_term_variant_and_shadow_model_is_used_by_a_scene_or_model_file
 fn default_variant(name: &str) -> &'static str {
     lancer_shading::terms::BUILTIN.iter().find(|t| t.name == name).unwrap().variant
 }
+
+#[test]
+fn every_scene_has_a_title_and_description_and_every_shape_a_scene() {
+    let registry = lancer_shading::Registry::with_builtins();
+    let mut text = String::new();
+    for path in lancer_tests::scene_files() {
+        let src = std::fs::read_to_string(&path).unwrap();
+        let loaded = lancer_scene::load_scene(&src, &path.display().to_string(), &registry).unwrap();
+        let meta = &loaded.scene.meta;
+        assert!(meta.title.as_deref().is_some_and(|t| !t.is_empty()), "{} has no [meta] title", path.display());
+        assert!(
+            meta.description.as_deref().is_some_and(|d| d.len() > 40),
+            "{} has no real [meta] description",
+            path.display()
+        );
+        text += &src;
+    }
+    for shape in lancer_shapes::Shape::NAMES {
+        assert!(text.contains(&format!("shape = \"{shape}\"")), "no scene shows shape `{shape}`");
+    }
+}

@@ -53,6 +53,12 @@ struct RenderArgs {
     /// optional variant, e.g. `ambient,diffuse,specular:blinn`.
     #[arg(long, value_name = "TERM[:VARIANT],...", value_delimiter = ',')]
     terms: Option<Vec<String>>,
+    /// Replace the model's shadow model (default parameters), e.g. `none`, `hard`, `soft`.
+    #[arg(long, value_name = "MODEL")]
+    shadows: Option<String>,
+    /// Replace the model's recursion limit for mirror and refraction rays.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(0..=64))]
+    max_depth: Option<u8>,
     /// Image width (the height follows the scene's aspect ratio unless --height is given).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: Option<u32>,
@@ -123,6 +129,12 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
             terms.push(term);
         }
         pipeline = Pipeline::new(pipeline.max_depth, pipeline.shadows, terms).context("in --terms")?;
+    }
+    if let Some(name) = &args.shadows {
+        pipeline.shadows = registry.build_shadow(name, Params::default()).context("in --shadows")?;
+    }
+    if let Some(depth) = args.max_depth {
+        pipeline.max_depth = depth;
     }
     let img = &mut scene.image;
     let aspect = img.width as f64 / img.height as f64;
