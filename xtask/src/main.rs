@@ -1,15 +1,24 @@
-//! `cargo xtask`: project chores that need more than cargo. `renders` renders every scene in
-//! `scenes/` with its per-term images into `target/renders/<scene>/`.
+//! `cargo xtask`: project chores that need more than cargo: the HTML render gallery (and its
+//! check in a real browser) and plain per-scene renders.
+
+mod gallery;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-const USAGE: &str = "usage: cargo xtask renders [--width W] [FILTER]
+const USAGE: &str = "usage: cargo xtask <task> [options]
 
-  renders   render every scene in scenes/ (or those whose path contains FILTER) with its
-            per-term images into target/renders/<scene>/";
+tasks:
+  gallery [--width W] [--samples N] [FILTER]
+            render every scene in scenes/ (or those whose path contains FILTER) with its per-term
+            images, and the comparison sheets, into target/gallery/index.html
+  gallery-check [--screenshot FILE]
+            open target/gallery/index.html in headless Chromium; fail if any image did not load;
+            save a screenshot (default target/gallery/screenshot.png)
+  renders [--width W] [FILTER]
+            every scene's per-term images into target/renders/<scene>/";
 
 fn main() {
     if let Err(e) = run(std::env::args().skip(1).collect()) {
@@ -18,12 +27,15 @@ fn main() {
     }
 }
 
-fn root() -> PathBuf {
+/// The repository's root folder.
+pub fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask/ sits in the root").to_path_buf()
 }
 
 fn run(args: Vec<String>) -> Result<()> {
     match args.first().map(String::as_str) {
+        Some("gallery") => gallery::build(&args[1..]),
+        Some("gallery-check") => gallery::check(&args[1..]),
         Some("renders") => renders(&args[1..]),
         Some("-h" | "--help") | None => {
             println!("{USAGE}");
@@ -33,62 +45,76 @@ fn run(args: Vec<String>) -> Result<()> {
     }
 }
 
-fn scenes(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
-    for entry in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
-        let p = entry?.path();
-        if p.is_dir() {
-            scenes(&p, out)?;
-        } else if p.extension().is_some_and(|e| e == "toml") {
-            out.push(p);
+/// Every scene file under `scenes/`, sorted, keeping those whose path contains `filter`.
+pub fn scenes(filter: Option<&str>) -> Result<Vec<PathBuf>> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
+        for entry in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
+            let p = entry?.path();
+            if p.is_dir() {
+                walk(&p, out)?;
+            } else if p.extension().is_some_and(|e| e == "toml") {
+                out.push(p);
+            }
         }
+        Ok(())
     }
-    Ok(())
+    let mut list = Vec::new();
+    walk(&root().join("scenes"), &mut list)?;
+    list.sort();
+    list.retain(|p| filter.is_none_or(|f| p.to_string_lossy().contains(f)));
+    if list.is_empty() {
+        bail!("no scene matches `{}`", filter.unwrap_or_default());
+    }
+    Ok(list)
 }
 
-fn renders(args: &[String]) -> Result<()> {
-    let (mut width, mut filter) = (None, None);
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--width" => {
-                width = Some(
-                    it.next().context("--width needs a number")?.parse::<u32>().context("--width needs a number")?,
-                )
-            }
-            f if !f.starts_with('-') && filter.is_none() => filter = Some(f.to_owned()),
-            other => bail!("unexpected argument `{other}`\n{USAGE}"),
-        }
-    }
-    let root = root();
+/// Builds the release renderer and returns its path.
+pub fn build_renderer() -> Result<PathBuf> {
     let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .args(["build", "--release", "--package", "lancer-cli"])
-        .current_dir(&root)
+        .current_dir(root())
         .status()
         .context("running cargo build")?;
     if !status.success() {
         bail!("building the renderer failed");
     }
-    let lancer = root.join("target/release/lancer");
-    let mut list = Vec::new();
-    scenes(&root.join("scenes"), &mut list)?;
-    list.sort();
-    list.retain(|p| filter.as_ref().is_none_or(|f| p.to_string_lossy().contains(f.as_str())));
-    if list.is_empty() {
-        bail!("no scene matches {}", filter.unwrap_or_default());
+    Ok(root().join("target/release/lancer"))
+}
+
+/// `--width W` and one free argument (a filter), from `args`.
+pub fn parse_common(args: &[String], extra: &[&str]) -> Result<(Vec<(String, String)>, Option<String>)> {
+    let (mut opts, mut filter) = (Vec::new(), None);
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        if let Some(name) = a.strip_prefix("--").filter(|n| extra.contains(n)) {
+            let v = it.next().with_context(|| format!("--{name} needs a value"))?;
+            opts.push((name.to_owned(), v.clone()));
+        } else if !a.starts_with('-') && filter.is_none() {
+            filter = Some(a.clone());
+        } else {
+            bail!("unexpected argument `{a}`\n{USAGE}");
+        }
     }
+    Ok((opts, filter))
+}
+
+fn renders(args: &[String]) -> Result<()> {
+    let (opts, filter) = parse_common(args, &["width"])?;
+    let lancer = build_renderer()?;
+    let list = scenes(filter.as_deref())?;
     for (i, scene) in list.iter().enumerate() {
-        let rel = scene.strip_prefix(root.join("scenes")).unwrap_or(scene).with_extension("");
-        let out = root.join("target/renders").join(&rel);
+        let rel = scene.strip_prefix(root().join("scenes")).unwrap_or(scene).with_extension("");
+        let out = root().join("target/renders").join(&rel);
         eprintln!("[{}/{}] {}", i + 1, list.len(), rel.display());
         let mut cmd = Command::new(&lancer);
         cmd.arg("render").arg(scene).arg("-o").arg(out.join("beauty.png")).arg("--aov").arg(&out).arg("--quiet");
-        if let Some(w) = width {
-            cmd.args(["--width", &w.to_string()]);
+        for (k, v) in &opts {
+            cmd.arg(format!("--{k}")).arg(v);
         }
         if !cmd.status().context("running lancer")?.success() {
             bail!("rendering {} failed", scene.display());
         }
     }
-    eprintln!("wrote {} scenes to {}", list.len(), root.join("target/renders").display());
+    eprintln!("wrote {} scenes to {}", list.len(), root().join("target/renders").display());
     Ok(())
 }

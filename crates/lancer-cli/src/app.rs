@@ -36,6 +36,17 @@ enum Command {
     Terms,
 }
 
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+enum AovFormat {
+    /// Linear float OpenEXR only.
+    Exr,
+    /// sRGB 8-bit PNG only.
+    Png,
+    /// Both.
+    #[default]
+    Both,
+}
+
 #[derive(Args, Default)]
 struct RenderArgs {
     /// Scene file (TOML); the embedded showcase when absent.
@@ -46,6 +57,9 @@ struct RenderArgs {
     /// Also write DIR/<term>.exr and DIR/<term>.png for every term, and DIR/beauty.{exr,png}.
     #[arg(long, value_name = "DIR")]
     aov: Option<PathBuf>,
+    /// Which files --aov writes for each image: linear EXR, sRGB PNG, or both.
+    #[arg(long, value_enum, default_value_t = AovFormat::Both)]
+    aov_format: AovFormat,
     /// Replace the scene's [model] with this model file.
     #[arg(long, value_name = "FILE")]
     model: Option<PathBuf>,
@@ -175,7 +189,7 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     let beauty = frame.beauty();
     write_atomic(&args.output, &format.encode(frame.width, frame.height, &beauty)?)?;
     if let Some(dir) = &args.aov {
-        write_aovs(dir, &frame, &beauty)?;
+        write_aovs(dir, &frame, &beauty, args.aov_format)?;
     }
     if !args.quiet {
         eprintln!(
@@ -198,7 +212,7 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
 }
 
 /// One EXR and one PNG per term, the background layer when it is not black, and the beauty image.
-fn write_aovs(dir: &Path, frame: &Frame, beauty: &[glam::Vec3]) -> Result<()> {
+fn write_aovs(dir: &Path, frame: &Frame, beauty: &[glam::Vec3], which: AovFormat) -> Result<()> {
     let mut images: Vec<(&str, &[glam::Vec3])> = Vec::new();
     for layer in &frame.layers {
         if layer.name == BACKGROUND && layer.pixels.iter().all(|p| *p == glam::Vec3::ZERO) {
@@ -211,7 +225,12 @@ fn write_aovs(dir: &Path, frame: &Frame, beauty: &[glam::Vec3]) -> Result<()> {
     }
     images.push(("beauty", beauty));
     for (name, pixels) in images {
-        for format in [Format::Exr, Format::Png] {
+        let formats = match which {
+            AovFormat::Exr => &[Format::Exr][..],
+            AovFormat::Png => &[Format::Png][..],
+            AovFormat::Both => &[Format::Exr, Format::Png][..],
+        };
+        for &format in formats {
             let ext = if format == Format::Exr { "exr" } else { "png" };
             write_atomic(&dir.join(format!("{name}.{ext}")), &format.encode(frame.width, frame.height, pixels)?)?;
         }
