@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 
-use crate::{build_renderer, parse_common, root, scenes};
+use crate::{TaskArgs, build_renderer, parse_common, root, scenes};
 
 /// The terms a model without `terms` gets, in order (the built-in defaults).
 const DEFAULT_TERMS: [&str; 5] = ["ambient", "diffuse", "specular", "mirror", "refraction"];
@@ -160,7 +160,7 @@ fn render(lancer: &Path, scene: &Path, dir: &Path, args: &[&str], opts: &[(Strin
 
 /// `cargo xtask gallery [--width W] [--samples N] [FILTER]`.
 pub fn build(args: &[String]) -> Result<()> {
-    let (opts, filter) = parse_common(args, &["width", "samples"])?;
+    let TaskArgs { options: opts, filter } = parse_common(args, &["width", "samples"])?;
     let lancer = build_renderer()?;
     let out = root().join("target/gallery");
     if out.exists() {
@@ -365,7 +365,7 @@ fn attribute(dom: &str, name: &str) -> Option<String> {
 
 /// `cargo xtask gallery-check [--screenshot FILE]`.
 pub fn check(args: &[String]) -> Result<()> {
-    let (opts, extra) = parse_common(args, &["screenshot"])?;
+    let TaskArgs { options: opts, filter: extra } = parse_common(args, &["screenshot"])?;
     if let Some(e) = extra {
         bail!("unexpected argument `{e}`");
     }

@@ -81,8 +81,16 @@ pub fn build_renderer() -> Result<PathBuf> {
     Ok(root().join("target/release/lancer"))
 }
 
-/// `--width W` and one free argument (a filter), from `args`.
-pub fn parse_common(args: &[String], extra: &[&str]) -> Result<(Vec<(String, String)>, Option<String>)> {
+/// A task's command line: `--NAME VALUE` options and at most one free argument (a filter).
+pub struct TaskArgs {
+    /// The options given, in order, without their `--`.
+    pub options: Vec<(String, String)>,
+    /// The free argument.
+    pub filter: Option<String>,
+}
+
+/// Splits `args` into the options named in `extra` and one free argument.
+pub fn parse_common(args: &[String], extra: &[&str]) -> Result<TaskArgs> {
     let (mut opts, mut filter) = (Vec::new(), None);
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -95,11 +103,11 @@ pub fn parse_common(args: &[String], extra: &[&str]) -> Result<(Vec<(String, Str
             bail!("unexpected argument `{a}`\n{USAGE}");
         }
     }
-    Ok((opts, filter))
+    Ok(TaskArgs { options: opts, filter })
 }
 
 fn renders(args: &[String]) -> Result<()> {
-    let (opts, filter) = parse_common(args, &["width"])?;
+    let TaskArgs { options: opts, filter } = parse_common(args, &["width"])?;
     let lancer = build_renderer()?;
     let list = scenes(filter.as_deref())?;
     for (i, scene) in list.iter().enumerate() {
