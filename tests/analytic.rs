@@ -101,3 +101,37 @@ fn index_matched_glass_is_invisible() {
     // Rays through the glass restart from offset exit points, so values may differ by rounding.
     assert!(worst < 1e-4, "largest difference {worst}");
 }
+
+/// The area covered by `object` (a TOML `[[objects]]` body) seen through a near-orthographic
+/// camera from `from` (1000 units away) over a 4 × 4 window: covered pixels × pixel area.
+fn silhouette_area(object: &str, from: &str, up: &str) -> f64 {
+    let n = 400u32;
+    let fov = 2.0 * (2.0f64 / 1000.0).atan().to_degrees();
+    let src = format!(
+        "[image]\nwidth = {n}\nheight = {n}\n[camera]\nfrom = {from}\nto = [0, 0, 0]\nup = {up}\nfov = {fov}\n\
+         [model]\nmax_depth = 0\nterms = [\"ambient\"]\n[[objects]]\n{object}\nmaterial = {{ ambi = 1, color = [1, 1, 1] }}\n"
+    );
+    let frame = render(&load(&src), None, 2);
+    let covered = frame.layer("ambient").unwrap().pixels.iter().filter(|p| p.x > 0.0).count();
+    covered as f64 * (4.0 / n as f64).powi(2)
+}
+
+#[test]
+fn silhouette_areas_match_closed_forms() {
+    use std::f64::consts::PI;
+    let front = ("[0, 0, -1000]", "[0, 1, 0]");
+    let above = ("[0, 1000, 0]", "[0, 0, 1]");
+    let cases = [
+        ("shape = \"sphere\"", front, PI),
+        ("shape = \"cube\"", front, 4.0),
+        ("shape = \"cylinder\"", front, 4.0),
+        ("shape = \"cone\"", front, 2.0),
+        ("shape = \"disk\"", above, PI),
+        ("shape = \"torus\"\nminor = 0.3", above, 4.0 * PI * 0.3),
+        ("shape = \"cylinder\"\nscale = [0.5, 1.5, 0.5]\nrotate = [0, 0, 90]", front, 3.0),
+    ];
+    for (object, (from, up), expected) in cases {
+        let area = silhouette_area(object, from, up);
+        assert!((area / expected - 1.0).abs() < 0.01, "{object}: area {area:.4}, closed form {expected:.4}");
+    }
+}

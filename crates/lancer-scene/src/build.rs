@@ -66,6 +66,23 @@ pub fn load_scene(src: &str, file: &str, registry: &Registry) -> Result<Loaded, 
                 },
             )
         })?;
+        let shape = match (shape, &obj.minor) {
+            (Shape::Torus { .. }, Some(m)) => {
+                let minor = m.get_ref().0;
+                if !(minor > 0.0 && minor < 1.0) {
+                    let msg = format!(
+                        "`minor` must be in (0, 1) (the tube's radius, the major radius being 1), found {minor}"
+                    );
+                    return Err(cx.err(m.span(), LoadErrorKind::Syntax(msg)));
+                }
+                Shape::Torus { minor }
+            }
+            (_, Some(m)) => {
+                let msg = format!("`minor` is a torus parameter; a {} has none", shape.name());
+                return Err(cx.err(m.span(), LoadErrorKind::Syntax(msg)));
+            }
+            (shape, None) => shape,
+        };
         let mat = match obj.material.as_ref().map(|m| (m.span(), m.get_ref())) {
             None => None,
             Some((_, MaterialRef::Inline(m))) => Some(world.spawn((material(m),))),

@@ -290,6 +290,8 @@ pub struct ObjectDoc {
     pub scale: Option<Spanned<Scale>>,
     pub rotate: Option<[Num; 3]>,
     pub translate: Option<[Num; 3]>,
+    /// A torus's tube radius.
+    pub minor: Option<Spanned<Num>>,
 }
 
 /// `material = "name"` or an inline table.

@@ -181,3 +181,16 @@ fn bad_camera_and_bad_syntax() {
     };
     assert_eq!((e.file.as_str(), e.line, e.column), ("m.toml", 2, 1));
 }
+
+#[test]
+fn torus_minor_is_checked_and_only_for_tori() {
+    let ok = format!("{CAMERA}[[objects]]\nshape = \"torus\"\nminor = 0.4\n");
+    let l = load_scene(&ok, "s.toml", &Registry::with_builtins()).unwrap();
+    assert_eq!(*l.scene.world.query::<&Shape>().iter().next().unwrap(), Shape::Torus { minor: 0.4 });
+    let src = format!("{CAMERA}[[objects]]\nshape = \"torus\"\nminor = 1.5\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "1.5"));
+    assert!(e.to_string().contains("`minor` must be in (0, 1)"), "{e}");
+    let src = format!("{CAMERA}[[objects]]\nshape = \"cone\"\nminor = 0.2\n");
+    assert!(err(&src).to_string().contains("`minor` is a torus parameter; a cone has none"));
+}

@@ -7,7 +7,9 @@
 mod aabb;
 mod bvh;
 mod geometry;
+mod quartic;
 mod shape;
+mod torus;
 
 pub use aabb::Aabb;
 pub use bvh::Bvh;

@@ -13,11 +13,25 @@ pub enum Shape {
     Cube,
     /// `y = 0`, normal `+y`; the half-space `y < 0` is inside.
     Plane,
+    /// Radius 1 around y for y in [-1, 1], capped.
+    Cylinder,
+    /// Apex at y = 1, base of radius 1 at y = -1, capped.
+    Cone,
+    /// Around y, major radius 1, tube radius `minor` (in (0, 1)).
+    Torus {
+        /// The tube's radius.
+        minor: f32,
+    },
+    /// The unit disk in the plane y = 0, normal +y (flat: it has no inside).
+    Disk,
 }
+
+/// A crossing of the surface: distance along the ray and outward normal (object space).
+type Crossing = (f32, Vec3);
 
 impl Shape {
     /// Every shape's name as scene files spell it, in documentation order.
-    pub const NAMES: &'static [&'static str] = &["sphere", "cube", "plane"];
+    pub const NAMES: &'static [&'static str] = &["sphere", "cube", "plane", "cylinder", "cone", "torus", "disk"];
 
     /// The name scene files use.
     pub fn name(self) -> &'static str {
@@ -25,32 +39,69 @@ impl Shape {
             Shape::Sphere => "sphere",
             Shape::Cube => "cube",
             Shape::Plane => "plane",
+            Shape::Cylinder => "cylinder",
+            Shape::Cone => "cone",
+            Shape::Torus { .. } => "torus",
+            Shape::Disk => "disk",
         }
     }
 
-    /// The shape called `name` in scene files.
+    /// The shape called `name` in scene files, with its parameters at their defaults (a torus's
+    /// `minor` is 0.25).
     pub fn from_name(name: &str) -> Option<Shape> {
-        match name {
-            "sphere" => Some(Shape::Sphere),
-            "cube" => Some(Shape::Cube),
-            "plane" => Some(Shape::Plane),
-            _ => None,
-        }
+        Some(match name {
+            "sphere" => Shape::Sphere,
+            "cube" => Shape::Cube,
+            "plane" => Shape::Plane,
+            "cylinder" => Shape::Cylinder,
+            "cone" => Shape::Cone,
+            "torus" => Shape::Torus { minor: 0.25 },
+            "disk" => Shape::Disk,
+            _ => return None,
+        })
     }
 
-    /// Whether the shape is convex (a plane counts): a ray leaving its surface never meets it
-    /// again, so secondary rays may ignore it.
+    /// Whether the shape is convex (a plane and a disk count): a ray leaving its surface never
+    /// meets it again, so secondary rays may ignore it.
     pub fn is_convex(self) -> bool {
-        match self {
-            Shape::Sphere | Shape::Cube | Shape::Plane => true,
-        }
+        !matches!(self, Shape::Torus { .. })
+    }
+
+    /// Whether the shape encloses a volume, so a ray inside it has an exit point.
+    pub fn is_closed(self) -> bool {
+        !matches!(self, Shape::Disk)
     }
 
     /// Object-space bounds; `None` for unbounded shapes.
     pub fn bounds(self) -> Option<Aabb> {
         match self {
-            Shape::Sphere | Shape::Cube => Some(Aabb { min: Vec3::splat(-1.0), max: Vec3::ONE }),
+            Shape::Sphere | Shape::Cube | Shape::Cylinder | Shape::Cone => {
+                Some(Aabb { min: Vec3::splat(-1.0), max: Vec3::ONE })
+            }
+            Shape::Torus { minor } => Some(Aabb {
+                min: Vec3::new(-1.0 - minor, -minor, -1.0 - minor),
+                max: Vec3::new(1.0 + minor, minor, 1.0 + minor),
+            }),
+            // A sliver of thickness so the slab test never divides a zero-width box.
+            Shape::Disk => Some(Aabb { min: Vec3::new(-1.0, -1e-4, -1.0), max: Vec3::new(1.0, 1e-4, 1.0) }),
             Shape::Plane => None,
+        }
+    }
+
+    /// Where the line `o + t d` is inside a convex solid: entry and exit crossings (entry may
+    /// be behind the origin). `None` for a line that misses, or for non-convex and flat shapes.
+    #[inline]
+    fn span(self, o: Vec3, d: Vec3) -> Option<(Crossing, Crossing)> {
+        match self {
+            Shape::Sphere => {
+                let (t0, t1) = sphere_roots(o, d)?;
+                let n = |t: f32| (o + t * d).normalize_or(Vec3::Y);
+                Some(((t0, n(t0)), (t1, n(t1))))
+            }
+            Shape::Cube => cube_span(o, d),
+            Shape::Cylinder => cylinder_span(o, d),
+            Shape::Cone => cone_span(o, d),
+            Shape::Plane | Shape::Torus { .. } | Shape::Disk => None,
         }
     }
 
@@ -60,19 +111,24 @@ impl Shape {
     pub fn intersect(self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
         let ok = |t: f32| t > tmin && t < tmax;
         match self {
-            Shape::Sphere => {
-                let (t0, t1) = sphere_roots(o, d)?;
-                let t = if ok(t0) {
-                    t0
-                } else if ok(t1) {
-                    t1
-                } else {
+            Shape::Plane => {
+                if d.y == 0.0 {
                     return None;
-                };
-                Some((t, (o + t * d).normalize_or(Vec3::Y)))
+                }
+                let t = -o.y / d.y;
+                ok(t).then_some((t, Vec3::Y))
             }
-            Shape::Cube => {
-                let ((t0, n0), (t1, n1)) = cube_span(o, d)?;
+            Shape::Disk => {
+                if d.y == 0.0 {
+                    return None;
+                }
+                let t = -o.y / d.y;
+                let p = o + t * d;
+                (ok(t) && p.x * p.x + p.z * p.z <= 1.0).then_some((t, Vec3::Y))
+            }
+            Shape::Torus { minor } => crate::torus::first_hit(minor, o, d, tmin, tmax),
+            _ => {
+                let ((t0, n0), (t1, n1)) = self.span(o, d)?;
                 if ok(t0) {
                     Some((t0, n0))
                 } else if ok(t1) {
@@ -81,29 +137,15 @@ impl Shape {
                     None
                 }
             }
-            Shape::Plane => {
-                if d.y == 0.0 {
-                    return None;
-                }
-                let t = -o.y / d.y;
-                ok(t).then_some((t, Vec3::Y))
-            }
         }
     }
 
-    /// Where the line `o + t d`, starting inside the shape, leaves it: the far crossing `t > 0`,
-    /// with the outward normal there. `None` when the ray never leaves (a plane's half-space).
+    /// Where the line `o + t d`, starting inside the shape, leaves it: the next crossing `t > 0`,
+    /// with the outward normal there. `None` when the ray never leaves (a plane's half-space) or
+    /// the shape has no inside (a disk).
     #[inline]
     pub fn exit(self, o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
         match self {
-            Shape::Sphere => {
-                let (_, t1) = sphere_roots(o, d)?;
-                (t1 > 0.0).then(|| (t1, (o + t1 * d).normalize_or(Vec3::Y)))
-            }
-            Shape::Cube => {
-                let (_, (t1, n1)) = cube_span(o, d)?;
-                (t1 > 0.0).then_some((t1, n1))
-            }
             Shape::Plane => {
                 if d.y <= 0.0 {
                     return None;
@@ -111,8 +153,132 @@ impl Shape {
                 let t = -o.y / d.y;
                 (t > 0.0).then_some((t, Vec3::Y))
             }
+            Shape::Disk => None,
+            Shape::Torus { minor } => crate::torus::first_hit(minor, o, d, 0.0, f32::INFINITY),
+            _ => {
+                let (_, (t1, n1)) = self.span(o, d)?;
+                (t1 > 0.0).then_some((t1, n1))
+            }
         }
     }
+}
+
+/// The intersection of two parameter intervals given by their entry and exit crossings.
+#[inline]
+fn clip(a: (Crossing, Crossing), b: (Crossing, Crossing)) -> Option<(Crossing, Crossing)> {
+    let near = if a.0.0 >= b.0.0 { a.0 } else { b.0 };
+    let far = if a.1.0 <= b.1.0 { a.1 } else { b.1 };
+    (near.0 <= far.0).then_some((near, far))
+}
+
+const ALL: (Crossing, Crossing) = ((f32::NEG_INFINITY, Vec3::ZERO), (f32::INFINITY, Vec3::ZERO));
+
+/// Where the line is between the planes y = -1 and y = 1, with the caps' normals.
+#[inline]
+fn slab_y(o: Vec3, d: Vec3) -> Option<(Crossing, Crossing)> {
+    if d.y == 0.0 {
+        return (o.y.abs() <= 1.0).then_some(ALL);
+    }
+    let (ta, tb) = ((-1.0 - o.y) / d.y, (1.0 - o.y) / d.y);
+    Some(if d.y > 0.0 { ((ta, -Vec3::Y), (tb, Vec3::Y)) } else { ((tb, Vec3::Y), (ta, -Vec3::Y)) })
+}
+
+/// Roots of `a t² + 2 b t + c = 0`, ascending, cancellation-free; `None` without real roots.
+#[inline]
+fn half_quadratic(a: f32, b: f32, c: f32, disc: f32) -> Option<(f32, f32)> {
+    if disc < 0.0 {
+        return None;
+    }
+    let h = -(b + disc.sqrt().copysign(b));
+    if h == 0.0 {
+        return Some((0.0, 0.0));
+    }
+    let (r0, r1) = (h / a, c / h);
+    Some(if r0 <= r1 { (r0, r1) } else { (r1, r0) })
+}
+
+/// The capped unit cylinder: the infinite cylinder x² + z² ≤ 1 clipped to y in [-1, 1].
+#[inline]
+fn cylinder_span(o: Vec3, d: Vec3) -> Option<(Crossing, Crossing)> {
+    let a = d.x * d.x + d.z * d.z;
+    let side = if a == 0.0 {
+        if o.x * o.x + o.z * o.z > 1.0 {
+            return None;
+        }
+        ALL
+    } else {
+        let b = o.x * d.x + o.z * d.z;
+        // b² − a c = a (1 − |q|²), q the closest point of the projected line to the axis.
+        let (qx, qz) = (o.x - b / a * d.x, o.z - b / a * d.z);
+        let disc = a * (1.0 - (qx * qx + qz * qz));
+        let (t0, t1) = half_quadratic(a, b, o.x * o.x + o.z * o.z - 1.0, disc)?;
+        let n = |t: f32| {
+            let p = o + t * d;
+            Vec3::new(p.x, 0.0, p.z).normalize_or(Vec3::X)
+        };
+        ((t0, n(t0)), (t1, n(t1)))
+    };
+    clip(side, slab_y(o, d)?)
+}
+
+/// The capped cone: x² + z² ≤ ((1 − y)/2)² for y in [-1, 1] (apex at y = 1).
+#[inline]
+fn cone_span(o: Vec3, d: Vec3) -> Option<(Crossing, Crossing)> {
+    let slab = slab_y(o, d)?;
+    // f(t) = x² + z² − (1 − y)²/4 = a t² + 2 b t + c; inside where f ≤ 0. In f64: c cancels
+    // two large terms when the origin is far, which in f32 puts hits off the surface.
+    let (od, dd) = (o.as_dvec3(), d.as_dvec3());
+    let (ky, kd) = (1.0 - od.y, -dd.y);
+    let a64 = dd.x * dd.x + dd.z * dd.z - kd * kd / 4.0;
+    let b64 = od.x * dd.x + od.z * dd.z - ky * kd / 4.0;
+    let c64 = od.x * od.x + od.z * od.z - ky * ky / 4.0;
+    let (a, b, c) = (a64 as f32, b64 as f32, c64 as f32);
+    let normal = |t: f32| {
+        let p = o + t * d;
+        Vec3::new(2.0 * p.x, (1.0 - p.y) / 2.0, 2.0 * p.z).normalize_or(Vec3::Y)
+    };
+    // The quadric's inside as one or two intervals of t.
+    let pieces: [Option<(Crossing, Crossing)>; 2] = if a.abs() < 1e-12 {
+        // Parallel to a generator: f is linear in t.
+        if b == 0.0 {
+            if c <= 0.0 { [Some(ALL), None] } else { return None }
+        } else {
+            let t = -c / (2.0 * b);
+            if b > 0.0 {
+                [Some(((f32::NEG_INFINITY, Vec3::ZERO), (t, normal(t)))), None]
+            } else {
+                [Some(((t, normal(t)), (f32::INFINITY, Vec3::ZERO))), None]
+            }
+        }
+    } else {
+        let disc = b64 * b64 - a64 * c64;
+        let roots = (disc >= 0.0).then(|| {
+            let h = -(b64 + disc.sqrt().copysign(b64));
+            let (r0, r1) = if h == 0.0 { (0.0, 0.0) } else { (h / a64, c64 / h) };
+            if r0 <= r1 { (r0 as f32, r1 as f32) } else { (r1 as f32, r0 as f32) }
+        });
+        match roots {
+            None => {
+                if a > 0.0 {
+                    return None;
+                } else {
+                    [Some(ALL), None]
+                }
+            }
+            Some((t0, t1)) if a > 0.0 => [Some(((t0, normal(t0)), (t1, normal(t1)))), None],
+            Some((t0, t1)) => [
+                Some(((f32::NEG_INFINITY, Vec3::ZERO), (t0, normal(t0)))),
+                Some(((t1, normal(t1)), (f32::INFINITY, Vec3::ZERO))),
+            ],
+        }
+    };
+    // Within the slab only the lower nappe remains, so at most one piece survives; keep the
+    // longer if rounding lets two touch at the apex.
+    pieces
+        .into_iter()
+        .flatten()
+        .filter_map(|p| clip(p, slab))
+        .max_by(|x, y| (x.1.0 - x.0.0).total_cmp(&(y.1.0 - y.0.0)))
 }
 
 /// Both roots of `|o + t d|² = 1`, ascending.
