@@ -126,7 +126,7 @@ fn hits_are_on_the_surface_with_unit_outward_normals_and_match_object_space() {
             prop_assert!(surface_distance(shape, p_obj) < 1e-3, "{shape:?}: {p_obj} is off the surface");
             prop_assert!((n.length() - 1.0).abs() < 1e-5);
             if let Some(on) = object_normal(shape, p_obj) {
-                let expected = Vec3::from(m.inverse().matrix3.transpose() * on).normalize();
+                let expected = (m.inverse().matrix3.transpose() * on).normalize();
                 prop_assert!(n.dot(expected) > 0.999, "{shape:?}: normal {n} vs {expected} at {p_obj}");
             }
             // Same hit when intersecting the object-space ray directly.
