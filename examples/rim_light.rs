@@ -46,10 +46,9 @@ struct Rim {
 impl Term for Rim {
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
-            let m = ctx.material(chunk.hits, lane);
             let facing_viewer = chunk.hits.facing_normal(lane).dot(-chunk.rays.dir[lane]).clamp(0.0, 1.0);
             let rim = self.strength * (1.0 - facing_viewer).powf(self.power);
-            out.add(lane, rim * m.color);
+            out.add(lane, rim * ctx.color(chunk.hits, lane));
         }
     }
 }

@@ -21,7 +21,9 @@ pub fn load(src: &str) -> Loaded {
 pub fn load_file(path: &Path) -> Loaded {
     let path = root().join(path);
     let src = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
-    lancer_scene::load_scene(&src, &path.display().to_string(), &Registry::with_builtins())
+    let dir = path.parent().expect("a scene file has a folder").to_path_buf();
+    let resolve = |rel: &str| std::fs::read(dir.join(rel)).map_err(|e| e.to_string());
+    lancer_scene::load_scene_with(&src, &path.display().to_string(), &Registry::with_builtins(), &resolve)
         .unwrap_or_else(|e| panic!("{e}"))
 }
 

@@ -143,7 +143,7 @@ fn soft_shadow_penumbra_matches_the_geometry_of_the_area_light() {
     ];
     let geometry = Geometry::new(objects);
     let materials = [Material::default()];
-    let ctx = ShadowContext::new(&geometry, &materials);
+    let ctx = ShadowContext::new(&geometry, &materials, &[]);
     let light = Light { at: Vec3::new(0.0, hl as f32, 0.0), color: Vec3::ONE, intensity: 1.0, size: s as f32 };
     let soft = Registry::with_builtins()
         .build_shadow("soft", Params::new([("samples".to_owned(), ParamValue::Number(1024.0))]))

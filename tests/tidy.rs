@@ -71,11 +71,10 @@ fn default_variant(name: &str) -> &'static str {
 
 #[test]
 fn every_scene_has_a_title_and_description_and_every_shape_a_scene() {
-    let registry = lancer_shading::Registry::with_builtins();
     let mut text = String::new();
     for path in lancer_tests::scene_files() {
         let src = std::fs::read_to_string(&path).unwrap();
-        let loaded = lancer_scene::load_scene(&src, &path.display().to_string(), &registry).unwrap();
+        let loaded = lancer_tests::load_file(&path);
         let meta = &loaded.scene.meta;
         assert!(meta.title.as_deref().is_some_and(|t| !t.is_empty()), "{} has no [meta] title", path.display());
         assert!(

@@ -124,7 +124,11 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
         Some(p) => (read(p, "scene")?, p.display().to_string()),
         None => (DEFAULT_SCENE.to_owned(), DEFAULT_SCENE_NAME.to_owned()),
     };
-    let loaded = lancer_scene::load_scene(&src, &name, registry).map_err(anyhow::Error::msg)?;
+    // Files a scene refers to (textures) are relative to the scene file's folder.
+    let base = args.scene.as_ref().and_then(|p| p.parent()).map(Path::to_path_buf).unwrap_or_default();
+    let resolve =
+        |rel: &str| std::fs::read(base.join(rel)).map_err(|e| format!("reading {}: {e}", base.join(rel).display()));
+    let loaded = lancer_scene::load_scene_with(&src, &name, registry, &resolve).map_err(anyhow::Error::msg)?;
     let mut scene = loaded.scene;
     let mut pipeline = match &args.model {
         Some(p) => lancer_scene::load_model(&read(p, "model")?, &p.display().to_string(), registry)

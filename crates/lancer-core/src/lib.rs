@@ -14,7 +14,7 @@ pub mod scene;
 pub use camera::Camera;
 pub use frame::{Frame, Layer, RenderStats};
 pub use glam::Vec3;
-pub use material::{Light, Material};
+pub use material::{Light, Material, Pattern, Texture};
 pub use scene::{ImageSettings, MaterialOf, Meta, Scene, Transform};
 
 /// A linear RGB colour (no gamma), stored as a `Vec3`.

@@ -2,11 +2,63 @@
 
 use glam::Vec3;
 
+/// How `Col_Ω` varies over a surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Pattern {
+    /// `Material::color` everywhere.
+    Solid,
+    /// A 3D checker in object space: cubes of side `scale` alternate between
+    /// `Material::color` and `other`.
+    Checker {
+        /// The second colour, linear RGB.
+        other: Vec3,
+        /// Side of a checker cube, in object units.
+        scale: f32,
+    },
+    /// An image (index into the scene's textures) mapped by the shape's UV coordinates; for
+    /// planes and disks one copy of the image covers `scale` × `scale` object units.
+    Image {
+        /// Index into `Scene::textures`.
+        texture: u32,
+        /// Tile size for planar mappings.
+        scale: f32,
+    },
+}
+
+/// A texture image, linear RGB, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width * height` linear colours.
+    pub pixels: Vec<Vec3>,
+}
+
+impl Texture {
+    /// Bilinear lookup at `(u, v)`, wrapping around; `v = 0` is the image's bottom row.
+    pub fn sample(&self, u: f32, v: f32) -> Vec3 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let x = u.rem_euclid(1.0) * w as f32 - 0.5;
+        let y = (1.0 - v.rem_euclid(1.0)) * h as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let at = |i: i64, j: i64| self.pixels[(j.rem_euclid(h) * w + i.rem_euclid(w)) as usize];
+        let (i, j) = (x0 as i64, y0 as i64);
+        let top = at(i, j).lerp(at(i + 1, j), fx);
+        let bottom = at(i, j + 1).lerp(at(i + 1, j + 1), fx);
+        top.lerp(bottom, fy)
+    }
+}
+
 /// A material of the handout's model. Every factor is in [0, 1] except `n`, in [1, 2.5].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
-    /// `Col_Ω`, linear RGB.
+    /// `Col_Ω`, linear RGB (the first colour of a pattern).
     pub color: Vec3,
+    /// How the colour varies over the surface.
+    pub pattern: Pattern,
     /// Ambient fraction.
     pub ambi: f32,
     /// Diffuse (Lambert) weight.
@@ -24,7 +76,16 @@ pub struct Material {
 impl Default for Material {
     /// A plain white matte material: what an object without a material gets.
     fn default() -> Self {
-        Material { color: Vec3::ONE, ambi: 0.1, diff: 0.9, spec: 0.0, shine: 0.0, alpha: 0.0, n: 1.0 }
+        Material {
+            color: Vec3::ONE,
+            pattern: Pattern::Solid,
+            ambi: 0.1,
+            diff: 0.9,
+            spec: 0.0,
+            shine: 0.0,
+            alpha: 0.0,
+            n: 1.0,
+        }
     }
 }
 

@@ -78,6 +78,8 @@ pub struct Hits {
     pub t: Vec<f32>,
     /// Hit point in world space.
     pub point: Vec<Vec3>,
+    /// Hit point in the object's own space (for patterns and texture coordinates).
+    pub local: Vec<Vec3>,
     /// Unit outward geometric normal (the side the shape calls outside).
     pub normal: Vec<Vec3>,
     /// Whether the ray arrived from outside (`normal · dir < 0`).
@@ -92,6 +94,7 @@ impl Hits {
         Hits {
             t: vec![f32::INFINITY; n],
             point: vec![Vec3::ZERO; n],
+            local: vec![Vec3::ZERO; n],
             normal: vec![Vec3::ZERO; n],
             front: vec![true; n],
             object: vec![NO_HIT; n],

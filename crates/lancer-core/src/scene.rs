@@ -55,4 +55,6 @@ pub struct Scene {
     pub image: ImageSettings,
     /// Title and description.
     pub meta: Meta,
+    /// Images used by `Pattern::Image` materials.
+    pub textures: Vec<crate::Texture>,
 }

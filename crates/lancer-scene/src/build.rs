@@ -5,12 +5,12 @@ use std::collections::HashMap;
 use std::ops::Range;
 
 use glam::{Affine3A, Mat3, Vec3};
-use lancer_core::{Camera, ImageSettings, Light, Material, MaterialOf, Meta, Scene, Transform};
+use lancer_core::{Camera, ImageSettings, Light, Material, MaterialOf, Meta, Pattern, Scene, Texture, Transform};
 use lancer_shading::{ParamValue, Params, Pipeline, Registry};
 use lancer_shapes::Shape;
 use toml::Spanned;
 
-use crate::doc::{MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, SceneDoc};
+use crate::doc::{ColorDoc, MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, PatternDoc, SceneDoc};
 use crate::{LoadError, LoadErrorKind};
 
 /// A loaded scene file: the scene and the lighting model its `[model]` describes.
@@ -36,8 +36,19 @@ impl Ctx<'_> {
     }
 }
 
-/// Loads the scene file `file` whose text is `src`.
+/// Reads a file a scene refers to (a texture image), given the path as the scene wrote it; the
+/// caller decides what it is relative to. Errors are messages such as "no such file".
+pub type Resolver<'a> = &'a dyn Fn(&str) -> Result<Vec<u8>, String>;
+
+/// Loads the scene file `file` whose text is `src`; a scene that refers to other files (textures)
+/// is an error here: use [`load_scene_with`].
 pub fn load_scene(src: &str, file: &str, registry: &Registry) -> Result<Loaded, LoadError> {
+    load_scene_with(src, file, registry, &|path: &str| Err(format!("cannot read `{path}`: this loader reads no files")))
+}
+
+/// Loads the scene file `file` whose text is `src`, reading the files it refers to through
+/// `resolve`.
+pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Resolver<'_>) -> Result<Loaded, LoadError> {
     let cx = Ctx { file, src };
     let doc: SceneDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
     let pipeline = match &doc.model {
@@ -46,9 +57,11 @@ pub fn load_scene(src: &str, file: &str, registry: &Registry) -> Result<Loaded, 
     };
     let mut world = hecs::World::new();
 
+    let mut textures = Textures { list: Vec::new(), by_path: HashMap::new(), resolve };
     let mut named: HashMap<&str, hecs::Entity> = HashMap::new();
     for (name, m) in &doc.materials {
-        named.insert(name, world.spawn((material(m),)));
+        let m = material(&cx, m, &mut textures)?;
+        named.insert(name, world.spawn((m,)));
     }
     for l in &doc.lights {
         world.spawn((Light { at: vec3(l.at), color: Vec3::from(l.color), intensity: l.intensity, size: l.size },));
@@ -85,7 +98,10 @@ pub fn load_scene(src: &str, file: &str, registry: &Registry) -> Result<Loaded, 
         };
         let mat = match obj.material.as_ref().map(|m| (m.span(), m.get_ref())) {
             None => None,
-            Some((_, MaterialRef::Inline(m))) => Some(world.spawn((material(m),))),
+            Some((_, MaterialRef::Inline(m))) => {
+                let m = material(&cx, m, &mut textures)?;
+                Some(world.spawn((m,)))
+            }
             Some((span, MaterialRef::Named(name))) => Some(*named.get(name.as_str()).ok_or_else(|| {
                 let known: Vec<String> = doc.materials.keys().cloned().collect();
                 cx.err(
@@ -123,7 +139,7 @@ pub fn load_scene(src: &str, file: &str, registry: &Registry) -> Result<Loaded, 
         samples: doc.image.samples,
     };
     let meta = Meta { title: doc.meta.title, description: doc.meta.description };
-    Ok(Loaded { scene: Scene { world, camera, image, meta }, pipeline })
+    Ok(Loaded { scene: Scene { world, camera, image, meta, textures: textures.list }, pipeline })
 }
 
 /// Loads a model file (the keys of `[model]` at top level), replacing a scene's own model.
@@ -137,15 +153,93 @@ fn vec3(v: [Num; 3]) -> Vec3 {
     Vec3::new(v[0].0, v[1].0, v[2].0)
 }
 
-fn material(m: &MaterialDoc) -> Material {
-    Material {
-        color: Vec3::from(m.color),
-        ambi: m.ambi,
-        diff: m.diff,
-        spec: m.spec,
-        shine: m.shine,
-        alpha: m.alpha,
-        n: m.n,
+/// Texture images loaded so far, each file once.
+struct Textures<'r> {
+    list: Vec<Texture>,
+    by_path: HashMap<String, u32>,
+    resolve: Resolver<'r>,
+}
+
+/// The sRGB transfer function undone: an encoded channel in [0, 1] to linear.
+fn srgb_decode(c: f32) -> f32 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+impl Textures<'_> {
+    fn load(&mut self, cx: &Ctx<'_>, path: &Spanned<String>) -> Result<u32, LoadError> {
+        if let Some(&i) = self.by_path.get(path.get_ref()) {
+            return Ok(i);
+        }
+        let bad =
+            |msg: String| cx.err(path.span(), LoadErrorKind::Syntax(format!("texture `{}`: {msg}", path.get_ref())));
+        let bytes = (self.resolve)(path.get_ref()).map_err(bad)?;
+        let img = image::load_from_memory(&bytes).map_err(|e| bad(e.to_string()))?;
+        // Float images (EXR) are linear already; 8- and 16-bit images are sRGB-encoded.
+        let linear = matches!(img.color(), image::ColorType::Rgb32F | image::ColorType::Rgba32F);
+        let rgb = img.into_rgb32f();
+        let decode = |c: f32| if linear { c } else { srgb_decode(c) };
+        let pixels = rgb.pixels().map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2]))).collect();
+        self.list.push(Texture { width: rgb.width(), height: rgb.height(), pixels });
+        let i = (self.list.len() - 1) as u32;
+        self.by_path.insert(path.get_ref().clone(), i);
+        Ok(i)
+    }
+}
+
+fn material(cx: &Ctx<'_>, m: &MaterialDoc, textures: &mut Textures<'_>) -> Result<Material, LoadError> {
+    let (color, pattern) = match m.color.get_ref() {
+        ColorDoc::Solid(c) => (Vec3::from(*c), Pattern::Solid),
+        ColorDoc::Pattern(p) => pattern(cx, p, m.color.span(), textures)?,
+    };
+    Ok(Material { color, pattern, ambi: m.ambi, diff: m.diff, spec: m.spec, shine: m.shine, alpha: m.alpha, n: m.n })
+}
+
+const PATTERNS: [&str; 2] = ["checker", "image"];
+
+fn pattern(
+    cx: &Ctx<'_>,
+    p: &PatternDoc,
+    at: Range<usize>,
+    textures: &mut Textures<'_>,
+) -> Result<(Vec3, Pattern), LoadError> {
+    let syntax = |span: Range<usize>, msg: String| cx.err(span, LoadErrorKind::Syntax(msg));
+    let scale = match &p.scale {
+        None => 1.0,
+        Some(s) if s.get_ref().0 > 0.0 => s.get_ref().0,
+        Some(s) => return Err(syntax(s.span(), format!("`scale` must be positive, found {}", s.get_ref().0))),
+    };
+    let unused = |key: &str, span: Option<Range<usize>>| match span {
+        Some(span) => Err(syntax(span, format!("a {} pattern has no `{key}`", p.pattern.get_ref()))),
+        None => Ok(()),
+    };
+    match p.pattern.get_ref().as_str() {
+        "checker" => {
+            unused("path", p.path.as_ref().map(|x| x.span()))?;
+            let colors = p
+                .colors
+                .as_ref()
+                .ok_or_else(|| syntax(at.clone(), "a checker needs `colors = [[r, g, b], [r, g, b]]`".into()))?;
+            let [a, b] = colors.get_ref().map(|c| Vec3::new(c[0].0, c[1].0, c[2].0));
+            if a.min(b).min_element() < 0.0 {
+                return Err(syntax(colors.span(), "expected colours with no negative channel".into()));
+            }
+            Ok((a, Pattern::Checker { other: b, scale }))
+        }
+        "image" => {
+            unused("colors", p.colors.as_ref().map(|x| x.span()))?;
+            let path = p
+                .path
+                .as_ref()
+                .ok_or_else(|| syntax(at.clone(), "an image pattern needs `path = \"file.png\"`".into()))?;
+            let texture = textures.load(cx, path)?;
+            Ok((Vec3::ONE, Pattern::Image { texture, scale }))
+        }
+        other => {
+            let hint =
+                lancer_shading::nearest(other, PATTERNS).map(|n| format!(" (did you mean `{n}`?)")).unwrap_or_default();
+            let msg = format!("unknown pattern `{other}`{hint}; known patterns: {}", PATTERNS.join(", "));
+            Err(syntax(p.pattern.span(), msg))
+        }
     }
 }
 

@@ -234,11 +234,56 @@ impl<'de> Deserialize<'de> for NamedDoc {
     }
 }
 
+/// A material's `color`: `[r, g, b]` or a pattern table.
+#[derive(Clone)]
+pub enum ColorDoc {
+    Solid([f32; 3]),
+    Pattern(PatternDoc),
+}
+
+/// `{ pattern = "checker", colors = [[..], [..]], scale = 1 }` or
+/// `{ pattern = "image", path = "file.png", scale = 1 }`.
+#[derive(Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct PatternDoc {
+    pub pattern: Spanned<String>,
+    pub colors: Option<Spanned<[[Num; 3]; 2]>>,
+    pub scale: Option<Spanned<Num>>,
+    pub path: Option<Spanned<String>>,
+}
+
+struct ColorVisitor;
+
+impl<'de> Visitor<'de> for ColorVisitor {
+    type Value = ColorDoc;
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(
+            "a colour [r, g, b] or a pattern table such as { pattern = \"checker\", colors = [[1, 1, 1], [0, 0, 0]] }",
+        )
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<ColorDoc, A::Error> {
+        colour(de::value::SeqAccessDeserializer::new(seq)).map(ColorDoc::Solid)
+    }
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<ColorDoc, A::Error> {
+        PatternDoc::deserialize(de::value::MapAccessDeserializer::new(map)).map(ColorDoc::Pattern)
+    }
+}
+
+impl<'de> Deserialize<'de> for ColorDoc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<ColorDoc, D::Error> {
+        d.deserialize_any(ColorVisitor)
+    }
+}
+
+fn d_white_color() -> Spanned<ColorDoc> {
+    Spanned::new(0..0, ColorDoc::Solid([1.0; 3]))
+}
+
 #[derive(Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialDoc {
-    #[serde(default = "d_white", deserialize_with = "colour")]
-    pub color: [f32; 3],
+    #[serde(default = "d_white_color")]
+    pub color: Spanned<ColorDoc>,
     #[serde(default = "d_ambi", deserialize_with = "unit")]
     pub ambi: f32,
     #[serde(default = "d_diff", deserialize_with = "unit")]

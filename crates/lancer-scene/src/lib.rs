@@ -6,7 +6,7 @@ mod build;
 mod doc;
 mod error;
 
-pub use build::{Loaded, load_model, load_scene};
+pub use build::{Loaded, Resolver, load_model, load_scene, load_scene_with};
 pub use error::{LoadError, LoadErrorKind};
 
 #[cfg(test)]

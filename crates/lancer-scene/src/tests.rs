@@ -194,3 +194,45 @@ fn torus_minor_is_checked_and_only_for_tori() {
     let src = format!("{CAMERA}[[objects]]\nshape = \"cone\"\nminor = 0.2\n");
     assert!(err(&src).to_string().contains("`minor` is a torus parameter; a cone has none"));
 }
+
+#[test]
+fn patterns_load_and_their_mistakes_are_located() {
+    let src = format!(
+        "{CAMERA}[[objects]]\nshape = \"plane\"\nmaterial = {{ color = {{ pattern = \"checker\", colors = [[1, 1, 1], [0, 0, 0]], scale = 2 }} }}\n"
+    );
+    let l = load_scene(&src, "s.toml", &Registry::with_builtins()).unwrap();
+    let m = *l.scene.world.query::<&Material>().iter().next().unwrap();
+    assert_eq!(m.pattern, lancer_core::Pattern::Checker { other: glam::Vec3::ZERO, scale: 2.0 });
+
+    let src = format!("{CAMERA}[materials.m]\ncolor = {{ pattern = \"chekcer\", colors = [[1, 1, 1], [0, 0, 0]] }}\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "\"chekcer\""));
+    assert!(e.to_string().contains("unknown pattern `chekcer` (did you mean `checker`?)"), "{e}");
+
+    let src = format!("{CAMERA}[materials.m]\ncolor = {{ pattern = \"checker\" }}\n");
+    assert!(err(&src).to_string().contains("a checker needs `colors"));
+
+    let src = format!("{CAMERA}[materials.m]\ncolor = {{ pattern = \"image\", path = \"nope.png\" }}\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "\"nope.png\""));
+    assert!(e.to_string().contains("texture `nope.png`: cannot read `nope.png`"), "{e}");
+
+    // Through a resolver: a real PNG loads, sRGB-decoded to linear; garbage is a located error.
+    let png = {
+        let img = image::RgbImage::from_pixel(2, 1, image::Rgb([188, 188, 188]));
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+        out.into_inner()
+    };
+    let resolve = |p: &str| if p == "ok.png" { Ok(png.clone()) } else { Ok(b"not an image".to_vec()) };
+    let src = format!("{CAMERA}[materials.m]\ncolor = {{ pattern = \"image\", path = \"ok.png\" }}\n");
+    let l = crate::load_scene_with(&src, "s.toml", &Registry::with_builtins(), &resolve).unwrap();
+    let t = &l.scene.textures[0];
+    assert!((t.pixels[0].x - 0.5029).abs() < 1e-3, "sRGB 188 is linear 0.503, got {}", t.pixels[0].x);
+    let src = format!("{CAMERA}[materials.m]\ncolor = {{ pattern = \"image\", path = \"bad.png\" }}\n");
+    let e = match crate::load_scene_with(&src, "s.toml", &Registry::with_builtins(), &resolve) {
+        Err(e) => e,
+        Ok(_) => panic!("garbage is not an image"),
+    };
+    assert!(e.to_string().contains("texture `bad.png`"), "{e}");
+}

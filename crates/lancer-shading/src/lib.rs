@@ -6,6 +6,7 @@
 //! parameters ([`Params`]), and a render returns a [`lancer_core::Frame`].
 
 mod params;
+mod pattern;
 mod prepare;
 mod registry;
 mod render;
@@ -15,6 +16,7 @@ mod term;
 pub mod terms;
 
 pub use params::{ParamError, ParamSpec, ParamValue, Params};
+pub use pattern::surface_color;
 pub use prepare::{PrepareError, Prepared, prepare};
 pub use registry::{
     ModelError, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec, WEIGHT, nearest,

@@ -14,6 +14,8 @@ pub struct Prepared {
     pub materials: Vec<Material>,
     /// Lights, in the order they were added to the World.
     pub lights: Vec<Light>,
+    /// Images for `Pattern::Image` materials.
+    pub textures: Vec<lancer_core::Texture>,
 }
 
 /// A World that cannot be rendered.
@@ -58,5 +60,10 @@ pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
     let mut lights: Vec<(hecs::Entity, Light)> =
         world.query::<(hecs::Entity, &Light)>().iter().map(|(e, l)| (e, *l)).collect();
     lights.sort_by_key(|(e, _)| e.id());
-    Ok(Prepared { geometry: Geometry::new(objects), materials, lights: lights.into_iter().map(|(_, l)| l).collect() })
+    Ok(Prepared {
+        geometry: Geometry::new(objects),
+        materials,
+        lights: lights.into_iter().map(|(_, l)| l).collect(),
+        textures: scene.textures.clone(),
+    })
 }

@@ -45,6 +45,7 @@ pub fn render_prepared(
         materials: &prepared.materials,
         lights: &prepared.lights,
         max_depth: pipeline.max_depth,
+        textures: &prepared.textures,
     };
     let done = std::sync::atomic::AtomicUsize::new(0);
     let results: Vec<(Vec<Vec<Vec3>>, RenderStats)> = tiles
@@ -106,7 +107,7 @@ fn render_tile(
     let pixels = (tile.w * tile.h) as usize;
     let background_layer = pipeline.terms.len();
     let mut accum = vec![vec![Vec3::ZERO; pixels]; background_layer + 1];
-    let shadow_ctx = ShadowContext::new(ctx.geometry, ctx.materials);
+    let shadow_ctx = ShadowContext::new(ctx.geometry, ctx.materials, ctx.textures);
     let mut world = hecs::World::new();
     let mut stats = RenderStats::default();
 
@@ -188,7 +189,9 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
             let from = Origin { point: rays.origin[lane], skip: rays.skip[lane] };
             if let Some(h) = ctx.geometry.closest_hit(from, rays.dir[lane], 0.0, f32::INFINITY) {
                 hits.t[lane] = h.t;
-                hits.point[lane] = rays.origin[lane] + h.t * rays.dir[lane];
+                let point = rays.origin[lane] + h.t * rays.dir[lane];
+                hits.point[lane] = point;
+                hits.local[lane] = ctx.geometry.objects[h.object as usize].object_from_world.transform_point3(point);
                 hits.normal[lane] = h.normal;
                 hits.front[lane] = h.front;
                 hits.object[lane] = h.object;

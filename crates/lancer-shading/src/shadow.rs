@@ -3,7 +3,7 @@
 use std::cell::Cell;
 
 use glam::Vec3;
-use lancer_core::{Light, Material};
+use lancer_core::{Light, Material, Texture};
 use lancer_shapes::{Geometry, Origin};
 
 /// Scene data a shadow model may use, and a count of the shadow rays it traces.
@@ -12,13 +12,21 @@ pub struct ShadowContext<'a> {
     pub geometry: &'a Geometry,
     /// The material table.
     pub materials: &'a [Material],
+    /// Images for `Pattern::Image` materials.
+    pub textures: &'a [Texture],
     rays: Cell<u64>,
 }
 
 impl<'a> ShadowContext<'a> {
     /// A context over `geometry` and `materials`, with no ray traced yet.
-    pub fn new(geometry: &'a Geometry, materials: &'a [Material]) -> ShadowContext<'a> {
-        ShadowContext { geometry, materials, rays: Cell::new(0) }
+    pub fn new(geometry: &'a Geometry, materials: &'a [Material], textures: &'a [Texture]) -> ShadowContext<'a> {
+        ShadowContext { geometry, materials, textures, rays: Cell::new(0) }
+    }
+
+    /// `Col_Ω` of object `object` at the world point `p` on its surface.
+    pub fn color_at(&self, object: u32, p: Vec3) -> Vec3 {
+        let o = &self.geometry.objects[object as usize];
+        crate::surface_color(self.material(object), o.shape, o.object_from_world.transform_point3(p), self.textures)
     }
 
     /// The closest object between `from` and the distance `dist` along `dir`: a shadow ray,

@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use lancer_core::rays::{CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
-use lancer_core::{Light, Material};
+use lancer_core::{Light, Material, Texture};
 use lancer_shapes::{Geometry, Origin};
 
 /// Read-only scene data every term may use.
@@ -15,6 +15,8 @@ pub struct ShadeContext<'a> {
     pub lights: &'a [Light],
     /// The recursion limit (`max_depth`).
     pub max_depth: u8,
+    /// Images for `Pattern::Image` materials.
+    pub textures: &'a [Texture],
 }
 
 impl ShadeContext<'_> {
@@ -23,6 +25,13 @@ impl ShadeContext<'_> {
     pub fn material(&self, hits: &Hits, lane: usize) -> &Material {
         let object = &self.geometry.objects[hits.object[lane] as usize];
         &self.materials[object.material as usize]
+    }
+
+    /// `Col_Ω` at the hit of `lane`: the material's pattern evaluated there.
+    #[inline]
+    pub fn color(&self, hits: &Hits, lane: usize) -> glam::Vec3 {
+        let object = &self.geometry.objects[hits.object[lane] as usize];
+        crate::surface_color(&self.materials[object.material as usize], object.shape, hits.local[lane], self.textures)
     }
 }
 

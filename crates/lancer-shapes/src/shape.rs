@@ -72,6 +72,42 @@ impl Shape {
         !matches!(self, Shape::Disk)
     }
 
+    /// Texture coordinates of an object-space surface point, each in [0, 1] except for the
+    /// planar mappings (plane, disk, cylinder and cone caps), which use `(x, z) / scale` and tile.
+    /// Spheres, cylinders, cones and tori wrap `u` once around the y axis; `v` goes from bottom
+    /// (0) to top (1) (around the tube, for a torus); each cube face gets the whole image.
+    pub fn uv(self, p: Vec3, scale: f32) -> glam::Vec2 {
+        use std::f32::consts::{PI, TAU};
+        let around = 0.5 + p.z.atan2(p.x) / TAU;
+        let planar = glam::Vec2::new(p.x, p.z) / scale;
+        match self {
+            Shape::Sphere => glam::Vec2::new(around, 0.5 + p.y.clamp(-1.0, 1.0).asin() / PI),
+            Shape::Plane | Shape::Disk => planar,
+            Shape::Cylinder | Shape::Cone => {
+                if p.y.abs() >= 1.0 - 1e-4 {
+                    planar
+                } else {
+                    glam::Vec2::new(around, (p.y + 1.0) / 2.0)
+                }
+            }
+            Shape::Torus { .. } => {
+                let rho = (p.x * p.x + p.z * p.z).sqrt();
+                glam::Vec2::new(around, 0.5 + p.y.atan2(rho - 1.0) / TAU)
+            }
+            Shape::Cube => {
+                let a = p.abs();
+                let (s, t) = if a.x >= a.y && a.x >= a.z {
+                    (p.z * -p.x.signum(), p.y)
+                } else if a.y >= a.z {
+                    (p.x, p.z * -p.y.signum())
+                } else {
+                    (p.x * p.z.signum(), p.y)
+                };
+                glam::Vec2::new((s + 1.0) / 2.0, (t + 1.0) / 2.0)
+            }
+        }
+    }
+
     /// Object-space bounds; `None` for unbounded shapes.
     pub fn bounds(self) -> Option<Aabb> {
         match self {

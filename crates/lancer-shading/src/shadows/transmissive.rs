@@ -59,8 +59,8 @@ pub fn through_occluders(ctx: &ShadowContext<'_>, from: Origin, dir: Vec3, dist:
         if m.alpha <= 0.0 {
             return Vec3::ZERO;
         }
-        light *= if tint { m.alpha * m.color } else { Vec3::splat(m.alpha) };
         let p = from.point + hit.t * dir;
+        light *= if tint { m.alpha * ctx.color_at(hit.object, p) } else { Vec3::splat(m.alpha) };
         // Count each object once: jump from its entry to where the ray leaves it.
         let past = if hit.front {
             let inside = offset_origin(p, -hit.normal);
@@ -99,7 +99,7 @@ mod tests {
         let opaque = Material::default();
         let g = Geometry::new(objects);
         let materials = [glass, opaque];
-        let ctx = ShadowContext::new(&g, &materials);
+        let ctx = ShadowContext::new(&g, &materials, &[]);
         let params = if model == "transmissive" {
             Params::new([("tint".to_owned(), crate::ParamValue::Bool(tint))])
         } else {

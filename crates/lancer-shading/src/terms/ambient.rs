@@ -27,7 +27,7 @@ impl Term for Ambient {
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);
             if m.ambi > 0.0 {
-                out.add(lane, m.ambi * m.color);
+                out.add(lane, m.ambi * ctx.color(chunk.hits, lane));
             }
         }
     }

@@ -32,7 +32,7 @@ impl Term for Lambert {
             }
             let (_, n) = facing(&chunk, lane);
             let sum = sum_lights(&chunk, lane, n, |nw, _| nw);
-            out.add(lane, m.diff * m.color * sum);
+            out.add(lane, m.diff * ctx.color(chunk.hits, lane) * sum);
         }
     }
 }

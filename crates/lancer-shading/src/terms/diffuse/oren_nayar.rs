@@ -65,7 +65,7 @@ impl Term for OrenNayar {
             let (_, n) = facing(&chunk, lane);
             let v = -chunk.rays.dir[lane];
             let sum = sum_lights(&chunk, lane, n, |nw, w| nw * self.factor(n, w, v, nw));
-            out.add(lane, m.diff * m.color * sum);
+            out.add(lane, m.diff * ctx.color(chunk.hits, lane) * sum);
         }
     }
 }

@@ -64,7 +64,8 @@ impl Term for Fresnel {
             let Some(t) = passage(ctx, object, p, chunk.hits.normal[lane], u, m.n, front) else { continue };
             // Leaving from inside, the entry split already was the exit's.
             let t_out = if front { split(t.exit_cos, m.n, false).1 } else { 1.0 };
-            let absorption = if self.absorb > 0.0 { m.color.powf(t.length / self.absorb) } else { Vec3::ONE };
+            let absorption =
+                if self.absorb > 0.0 { ctx.color(chunk.hits, lane).powf(t.length / self.absorb) } else { Vec3::ONE };
             out.spawn(lane, t.from, t.dir, m.alpha * t_in * t_out * absorption);
         }
     }

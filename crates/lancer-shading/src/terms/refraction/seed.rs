@@ -57,7 +57,7 @@ mod tests {
     use crate::terms::refraction::passage;
 
     fn ctx(geometry: &Geometry) -> ShadeContext<'_> {
-        ShadeContext { geometry, materials: &[], lights: &[], max_depth: 5 }
+        ShadeContext { geometry, materials: &[], lights: &[], max_depth: 5, textures: &[] }
     }
 
     fn glass(shape: Shape, m: Affine3A) -> Geometry {
