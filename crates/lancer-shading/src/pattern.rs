@@ -49,7 +49,7 @@ mod tests {
         let t = Texture { width: 2, height: 1, pixels: vec![Vec3::X, Vec3::Z] };
         let m = Material { pattern: Pattern::Image { texture: 0, scale: 2.0 }, ..Material::default() };
         // On a plane, x / scale is u: x = 0.5 → u = 0.25, the red pixel's centre.
-        assert_eq!(surface_color(&m, Shape::Plane, Vec3::new(0.5, 0.0, 0.3), &[t.clone()]), Vec3::X);
+        assert_eq!(surface_color(&m, Shape::Plane, Vec3::new(0.5, 0.0, 0.3), std::slice::from_ref(&t)), Vec3::X);
         assert_eq!(surface_color(&m, Shape::Plane, Vec3::new(1.5, 0.0, 0.3), &[t]), Vec3::Z);
     }
 }
