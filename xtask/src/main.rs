@@ -1,6 +1,7 @@
 //! `cargo xtask`: project chores that need more than cargo: the HTML render gallery (and its
 //! check in a real browser) and plain per-scene renders.
 
+mod bench;
 mod gallery;
 
 use std::path::{Path, PathBuf};
@@ -11,6 +12,9 @@ use anyhow::{Context, Result, bail};
 const USAGE: &str = "usage: cargo xtask <task> [options]
 
 tasks:
+  bench [--runs N]
+            Lancer against POV-Ray 3.7 (when installed) on scenes/bench/anchor, 1 and 2 threads;
+            and render cost against the number of objects
   gallery [--width W] [--samples N] [FILTER]
             render every scene in scenes/ (or those whose path contains FILTER) with its per-term
             images, and the comparison sheets, into target/gallery/index.html
@@ -34,6 +38,7 @@ pub fn root() -> PathBuf {
 
 fn run(args: Vec<String>) -> Result<()> {
     match args.first().map(String::as_str) {
+        Some("bench") => bench::run(&args[1..]),
         Some("gallery") => gallery::build(&args[1..]),
         Some("gallery-check") => gallery::check(&args[1..]),
         Some("renders") => renders(&args[1..]),
