@@ -116,6 +116,14 @@ fn silhouette_area(object: &str, from: &str, up: &str) -> f64 {
     covered as f64 * (4.0 / n as f64).powi(2)
 }
 
+/// Area of the square [-1, 1]² clipped by the disk of radius `r` (1 < r < √2):
+/// 4 ∫₀¹ min(1, √(r² − x²)) dx, with ∫ √(r² − x²) dx = x √(r² − x²)/2 + r²/2 · asin(x/r).
+fn square_within_disk(r: f64) -> f64 {
+    let c = (r * r - 1.0).sqrt();
+    let primitive = |x: f64| x * (r * r - x * x).sqrt() / 2.0 + r * r / 2.0 * (x / r).asin();
+    4.0 * (c + primitive(1.0) - primitive(c))
+}
+
 #[test]
 fn silhouette_areas_match_closed_forms() {
     use std::f64::consts::PI;
@@ -129,9 +137,59 @@ fn silhouette_areas_match_closed_forms() {
         ("shape = \"disk\"", above, PI),
         ("shape = \"torus\"\nminor = 0.3", above, 4.0 * PI * 0.3),
         ("shape = \"cylinder\"\nscale = [0.5, 1.5, 0.5]\nrotate = [0, 0, 90]", front, 3.0),
+        // Seen face-on, the sphere (radius 1.2) empties every line of sight with x² + y² < 0.44.
+        (
+            "shape = \"csg\"\nop = \"difference\"\na = { shape = \"cube\" }\nb = { shape = \"sphere\", scale = 1.2 }",
+            front,
+            4.0 - 0.44 * PI,
+        ),
+        (
+            "shape = \"csg\"\nop = \"intersection\"\na = { shape = \"cube\" }\nb = { shape = \"sphere\", scale = 1.2 }",
+            front,
+            square_within_disk(1.2),
+        ),
+        (
+            "shape = \"csg\"\nop = \"union\"\na = { shape = \"cube\", translate = [-0.5, 0, 0], scale = 0.5 }\nb = { shape = \"cube\", translate = [0.5, 0, 0], scale = 0.5 }",
+            front,
+            2.0,
+        ),
     ];
     for (object, (from, up), expected) in cases {
         let area = silhouette_area(object, from, up);
         assert!((area / expected - 1.0).abs() < 0.01, "{object}: area {area:.4}, closed form {expected:.4}");
+    }
+}
+
+#[test]
+fn a_csg_lens_focuses_paraxial_rays_where_the_lensmaker_says() {
+    use glam::{Affine3A, Vec3};
+    use lancer_shading::ShadeContext;
+    use lancer_shading::terms::refraction::passage;
+    use lancer_shapes::{Csg, CsgNode, CsgOp, Geometry, Object, Shape};
+    // A biconvex lens on the z axis: the intersection of two spheres of radius R whose centres
+    // sit at ±(R − d/2), so the lens is d thick at its centre.
+    let (r, d, n) = (3.0f32, 0.6f32, 1.5f32);
+    let sphere = |z: f32| CsgNode::Leaf {
+        shape: Shape::Sphere,
+        node_from_leaf: Affine3A::from_translation(Vec3::new(0.0, 0.0, z)) * Affine3A::from_scale(Vec3::splat(r)),
+    };
+    let nodes = vec![sphere(r - d / 2.0), sphere(-(r - d / 2.0)), CsgNode::Op { op: CsgOp::Intersection, a: 0, b: 1 }];
+    let lens = Shape::Csg(std::sync::Arc::new(Csg::new(nodes, 2).unwrap()));
+    let geometry = Geometry::new(vec![Object::new(lens, Affine3A::IDENTITY, 0).unwrap()]);
+    let ctx = ShadeContext { geometry: &geometry, materials: &[], lights: &[], max_depth: 5, textures: &[] };
+    // Lensmaker's equation for a thick lens with R1 = R, R2 = −R; the back focal distance is
+    // measured from the back surface: f (1 − (n − 1) d / (n R1)).
+    let (r64, d64, n64) = (r as f64, d as f64, n as f64);
+    let f = 1.0 / ((n64 - 1.0) * (2.0 / r64 - (n64 - 1.0) * d64 / (n64 * r64 * r64)));
+    let back_focus = d64 / 2.0 + f * (1.0 - (n64 - 1.0) * d64 / (n64 * r64));
+    for h in [0.05f32, 0.1, 0.15] {
+        let o = Vec3::new(h, 0.0, -10.0);
+        let hit = geometry.closest_hit(lancer_shapes::Origin::free(o), Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        let p = o + hit.t * Vec3::Z;
+        let t = passage(&ctx, 0, p, hit.normal, Vec3::Z, n, hit.front).expect("the ray gets through");
+        // Where the outgoing ray crosses the axis (x = 0).
+        let s = -t.from.point.x / t.dir.x;
+        let z = (t.from.point.z + s * t.dir.z) as f64;
+        assert!((z / back_focus - 1.0).abs() < 0.02, "height {h}: focus at z = {z:.4}, lensmaker {back_focus:.4}");
     }
 }

@@ -7,10 +7,12 @@ use std::ops::Range;
 use glam::{Affine3A, Mat3, Vec3};
 use lancer_core::{Camera, ImageSettings, Light, Material, MaterialOf, Meta, Pattern, Scene, Texture, Transform};
 use lancer_shading::{ParamValue, Params, Pipeline, Registry};
-use lancer_shapes::Shape;
+use lancer_shapes::{CsgNode, CsgOp, Shape};
 use toml::Spanned;
 
-use crate::doc::{ColorDoc, MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, PatternDoc, SceneDoc};
+use crate::doc::{
+    ColorDoc, MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, OperandDoc, PatternDoc, Scale, SceneDoc,
+};
 use crate::{LoadError, LoadErrorKind};
 
 /// A loaded scene file: the scene and the lighting model its `[model]` describes.
@@ -68,34 +70,15 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
     }
     for o in &doc.objects {
         let obj = o.get_ref();
-        let shape = Shape::from_name(obj.shape.get_ref()).ok_or_else(|| {
-            let name = obj.shape.get_ref();
-            cx.err(
-                obj.shape.span(),
-                LoadErrorKind::UnknownShape {
-                    name: name.clone(),
-                    nearest: lancer_shading::nearest(name, Shape::NAMES.iter().copied()),
-                    known: Shape::NAMES.iter().map(|s| s.to_string()).collect(),
-                },
-            )
-        })?;
-        let shape = match (shape, &obj.minor) {
-            (Shape::Torus { .. }, Some(m)) => {
-                let minor = m.get_ref().0;
-                if !(minor > 0.0 && minor < 1.0) {
-                    let msg = format!(
-                        "`minor` must be in (0, 1) (the tube's radius, the major radius being 1), found {minor}"
-                    );
-                    return Err(cx.err(m.span(), LoadErrorKind::Syntax(msg)));
-                }
-                Shape::Torus { minor }
-            }
-            (_, Some(m)) => {
-                let msg = format!("`minor` is a torus parameter; a {} has none", shape.name());
-                return Err(cx.err(m.span(), LoadErrorKind::Syntax(msg)));
-            }
-            (shape, None) => shape,
+        let fields = ShapeFields {
+            shape: &obj.shape,
+            minor: &obj.minor,
+            op: &obj.op,
+            a: obj.a.as_ref(),
+            b: obj.b.as_ref(),
+            at: o.span(),
         };
+        let shape = build_shape(&cx, &fields)?;
         let mat = match obj.material.as_ref().map(|m| (m.span(), m.get_ref())) {
             None => None,
             Some((_, MaterialRef::Inline(m))) => {
@@ -114,14 +97,7 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
                 )
             })?),
         };
-        let scale = obj.scale.as_ref().map_or(Vec3::ONE, |s| Vec3::from(s.get_ref().0));
-        let [rx, ry, rz] = obj.rotate.map_or([0.0; 3], |r| r.map(|Num(d)| d.to_radians()));
-        // Degrees about x, then y, then z; scale first, translate last.
-        let rotation = Mat3::from_rotation_z(rz) * Mat3::from_rotation_y(ry) * Mat3::from_rotation_x(rx);
-        let world_from_object = Affine3A::from_mat3_translation(
-            rotation * Mat3::from_diagonal(scale),
-            obj.translate.map_or(Vec3::ZERO, vec3),
-        );
+        let world_from_object = placement(obj.scale.as_ref(), obj.rotate, obj.translate);
         let transform = Transform { world_from_object };
         match mat {
             Some(m) => world.spawn((shape, transform, MaterialOf(m))),
@@ -147,6 +123,123 @@ pub fn load_model(src: &str, file: &str, registry: &Registry) -> Result<Pipeline
     let cx = Ctx { file, src };
     let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
     build_pipeline(&cx, &doc, registry)
+}
+
+/// Scale, then rotate (degrees about x, then y, then z), then translate.
+fn placement(scale: Option<&Spanned<Scale>>, rotate: Option<[Num; 3]>, translate: Option<[Num; 3]>) -> Affine3A {
+    let scale = scale.map_or(Vec3::ONE, |s| Vec3::from(s.get_ref().0));
+    let [rx, ry, rz] = rotate.map_or([0.0; 3], |r| r.map(|Num(d)| d.to_radians()));
+    let rotation = Mat3::from_rotation_z(rz) * Mat3::from_rotation_y(ry) * Mat3::from_rotation_x(rx);
+    Affine3A::from_mat3_translation(rotation * Mat3::from_diagonal(scale), translate.map_or(Vec3::ZERO, vec3))
+}
+
+/// The shape-describing keys of an object or a CSG operand.
+struct ShapeFields<'d> {
+    shape: &'d Spanned<String>,
+    minor: &'d Option<Spanned<Num>>,
+    op: &'d Option<Spanned<String>>,
+    a: Option<&'d Spanned<Box<OperandDoc>>>,
+    b: Option<&'d Spanned<Box<OperandDoc>>>,
+    /// The whole table, for errors about missing keys.
+    at: Range<usize>,
+}
+
+impl<'d> ShapeFields<'d> {
+    fn of(o: &'d Spanned<Box<OperandDoc>>) -> ShapeFields<'d> {
+        let d = o.get_ref();
+        ShapeFields { shape: &d.shape, minor: &d.minor, op: &d.op, a: d.a.as_ref(), b: d.b.as_ref(), at: o.span() }
+    }
+}
+
+fn build_shape(cx: &Ctx<'_>, f: &ShapeFields<'_>) -> Result<Shape, LoadError> {
+    let syntax = |span: Range<usize>, msg: String| cx.err(span, LoadErrorKind::Syntax(msg));
+    let name = f.shape.get_ref();
+    if name == "csg" {
+        if let Some(m) = f.minor {
+            return Err(syntax(m.span(), "`minor` is a torus parameter; a csg has none".into()));
+        }
+        let mut nodes = Vec::new();
+        let root = csg_node(cx, f, Affine3A::IDENTITY, &mut nodes)?;
+        let csg = lancer_shapes::Csg::new(nodes, root)
+            .ok_or_else(|| syntax(f.at.clone(), "a csg operand has a singular transform".into()))?;
+        return Ok(Shape::Csg(std::sync::Arc::new(csg)));
+    }
+    let shape = Shape::from_name(name).ok_or_else(|| {
+        cx.err(
+            f.shape.span(),
+            LoadErrorKind::UnknownShape {
+                name: name.clone(),
+                nearest: lancer_shading::nearest(name, Shape::NAMES.iter().copied()),
+                known: Shape::NAMES.iter().map(|s| s.to_string()).collect(),
+            },
+        )
+    })?;
+    {
+        for (key, span) in
+            [("op", f.op.as_ref().map(|x| x.span())), ("a", f.a.map(|x| x.span())), ("b", f.b.map(|x| x.span()))]
+        {
+            if let Some(span) = span {
+                return Err(syntax(span, format!("`{key}` belongs to a csg shape; a {name} has none")));
+            }
+        }
+    }
+    match (shape, f.minor) {
+        (Shape::Torus { .. }, Some(m)) => {
+            let minor = m.get_ref().0;
+            if !(minor > 0.0 && minor < 1.0) {
+                let msg =
+                    format!("`minor` must be in (0, 1) (the tube's radius, the major radius being 1), found {minor}");
+                return Err(syntax(m.span(), msg));
+            }
+            Ok(Shape::Torus { minor })
+        }
+        (shape, Some(m)) => Err(syntax(m.span(), format!("`minor` is a torus parameter; a {} has none", shape.name()))),
+        (shape, None) => Ok(shape),
+    }
+}
+
+/// Adds the CSG node `f` (placed by `node_from` in the tree's space) and its operands to `nodes`.
+fn csg_node(
+    cx: &Ctx<'_>,
+    f: &ShapeFields<'_>,
+    node_from: Affine3A,
+    nodes: &mut Vec<CsgNode>,
+) -> Result<u32, LoadError> {
+    let syntax = |span: Range<usize>, msg: String| cx.err(span, LoadErrorKind::Syntax(msg));
+    if f.shape.get_ref() != "csg" {
+        let shape = build_shape(cx, f)?;
+        // Checked again here: an operand's own shape must enclose a volume.
+        if !shape.is_closed() {
+            return Err(syntax(
+                f.shape.span(),
+                format!("a {} has no inside, so it cannot be a csg operand", shape.name()),
+            ));
+        }
+        nodes.push(CsgNode::Leaf { shape, node_from_leaf: node_from });
+        return Ok((nodes.len() - 1) as u32);
+    }
+    let op = f.op.as_ref().ok_or_else(|| {
+        syntax(f.at.clone(), "a csg shape needs `op = \"union\" | \"intersection\" | \"difference\"`".into())
+    })?;
+    let op_kind = CsgOp::from_name(op.get_ref()).ok_or_else(|| {
+        let hint = lancer_shading::nearest(op.get_ref(), CsgOp::NAMES.iter().copied())
+            .map(|n| format!(" (did you mean `{n}`?)"))
+            .unwrap_or_default();
+        syntax(
+            op.span(),
+            format!("unknown csg operation `{}`{hint}; known operations: {}", op.get_ref(), CsgOp::NAMES.join(", ")),
+        )
+    })?;
+    let mut operand = |which: &str, o: Option<&Spanned<Box<OperandDoc>>>| -> Result<u32, LoadError> {
+        let o =
+            o.ok_or_else(|| syntax(f.at.clone(), format!("a csg shape needs operand `{which} = {{ shape = ... }}`")))?;
+        let d = o.get_ref();
+        csg_node(cx, &ShapeFields::of(o), node_from * placement(d.scale.as_ref(), d.rotate, d.translate), nodes)
+    };
+    let a = operand("a", f.a)?;
+    let b = operand("b", f.b)?;
+    nodes.push(CsgNode::Op { op: op_kind, a, b });
+    Ok((nodes.len() - 1) as u32)
 }
 
 fn vec3(v: [Num; 3]) -> Vec3 {

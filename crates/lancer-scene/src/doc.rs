@@ -337,6 +337,24 @@ pub struct ObjectDoc {
     pub translate: Option<[Num; 3]>,
     /// A torus's tube radius.
     pub minor: Option<Spanned<Num>>,
+    /// A CSG object's operation and operands.
+    pub op: Option<Spanned<String>>,
+    pub a: Option<Spanned<Box<OperandDoc>>>,
+    pub b: Option<Spanned<Box<OperandDoc>>>,
+}
+
+/// A CSG operand: a shape (or CSG node) with its own transform, and no material.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OperandDoc {
+    pub shape: Spanned<String>,
+    pub scale: Option<Spanned<Scale>>,
+    pub rotate: Option<[Num; 3]>,
+    pub translate: Option<[Num; 3]>,
+    pub minor: Option<Spanned<Num>>,
+    pub op: Option<Spanned<String>>,
+    pub a: Option<Spanned<Box<OperandDoc>>>,
+    pub b: Option<Spanned<Box<OperandDoc>>>,
 }
 
 /// `material = "name"` or an inline table.

@@ -236,3 +236,38 @@ fn patterns_load_and_their_mistakes_are_located() {
     };
     assert!(e.to_string().contains("texture `bad.png`"), "{e}");
 }
+
+#[test]
+fn csg_objects_and_their_mistakes() {
+    let ok = format!(
+        "{CAMERA}[[objects]]\nshape = \"csg\"\nop = \"difference\"\na = {{ shape = \"cube\" }}\n\
+         b = {{ shape = \"csg\", op = \"union\", a = {{ shape = \"sphere\" }}, b = {{ shape = \"cylinder\", scale = 0.5 }}, translate = [0, 1, 0] }}\n"
+    );
+    let l = load_scene(&ok, "s.toml", &Registry::with_builtins()).unwrap();
+    assert!(matches!(l.scene.world.query::<&Shape>().iter().next().unwrap(), Shape::Csg(_)));
+
+    let src = format!(
+        "{CAMERA}[[objects]]\nshape = \"csg\"\nop = \"diference\"\na = {{ shape = \"cube\" }}\nb = {{ shape = \"sphere\" }}\n"
+    );
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "\"diference\""));
+    assert!(e.to_string().contains("unknown csg operation `diference` (did you mean `difference`?)"), "{e}");
+
+    let src = format!("{CAMERA}[[objects]]\nshape = \"csg\"\nop = \"union\"\na = {{ shape = \"cube\" }}\n");
+    assert!(err(&src).to_string().contains("a csg shape needs operand `b"));
+
+    let src = format!(
+        "{CAMERA}[[objects]]\nshape = \"csg\"\nop = \"union\"\na = {{ shape = \"disk\" }}\nb = {{ shape = \"cube\" }}\n"
+    );
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "\"disk\""));
+    assert!(e.to_string().contains("a disk has no inside, so it cannot be a csg operand"), "{e}");
+
+    let src = format!(
+        "{CAMERA}[[objects]]\nshape = \"csg\"\nop = \"union\"\na = {{ shape = \"cube\", material = \"x\" }}\nb = {{ shape = \"cube\" }}\n"
+    );
+    assert!(err(&src).to_string().contains("unknown field `material`"));
+
+    let src = format!("{CAMERA}[[objects]]\nshape = \"sphere\"\nop = \"union\"\n");
+    assert!(err(&src).to_string().contains("`op` belongs to a csg shape; a sphere has none"));
+}

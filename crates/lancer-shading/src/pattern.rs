@@ -7,7 +7,7 @@ use lancer_shapes::Shape;
 
 /// `Col_Ω` of `material` at the object-space point `local` of a `shape`.
 #[inline]
-pub fn surface_color(material: &Material, shape: Shape, local: Vec3, textures: &[Texture]) -> Vec3 {
+pub fn surface_color(material: &Material, shape: &Shape, local: Vec3, textures: &[Texture]) -> Vec3 {
     match material.pattern {
         Pattern::Solid => material.color,
         Pattern::Checker { other, scale } => {
@@ -34,7 +34,7 @@ mod tests {
             pattern: Pattern::Checker { other: Vec3::ZERO, scale: 1.0 },
             ..Material::default()
         };
-        let at = |x: f32, y: f32, z: f32| surface_color(&m, Shape::Plane, Vec3::new(x, y, z), &[]);
+        let at = |x: f32, y: f32, z: f32| surface_color(&m, &Shape::Plane, Vec3::new(x, y, z), &[]);
         assert_eq!(at(0.5, 0.0, 0.5), Vec3::ONE);
         assert_eq!(at(1.5, 0.0, 0.5), Vec3::ZERO);
         assert_eq!(at(1.5, 0.0, 1.5), Vec3::ONE);
@@ -49,7 +49,7 @@ mod tests {
         let t = Texture { width: 2, height: 1, pixels: vec![Vec3::X, Vec3::Z] };
         let m = Material { pattern: Pattern::Image { texture: 0, scale: 2.0 }, ..Material::default() };
         // On a plane, x / scale is u: x = 0.5 → u = 0.25, the red pixel's centre.
-        assert_eq!(surface_color(&m, Shape::Plane, Vec3::new(0.5, 0.0, 0.3), std::slice::from_ref(&t)), Vec3::X);
-        assert_eq!(surface_color(&m, Shape::Plane, Vec3::new(1.5, 0.0, 0.3), &[t]), Vec3::Z);
+        assert_eq!(surface_color(&m, &Shape::Plane, Vec3::new(0.5, 0.0, 0.3), std::slice::from_ref(&t)), Vec3::X);
+        assert_eq!(surface_color(&m, &Shape::Plane, Vec3::new(1.5, 0.0, 0.3), &[t]), Vec3::Z);
     }
 }

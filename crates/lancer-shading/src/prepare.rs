@@ -44,7 +44,7 @@ pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
     let mut objs: Vec<(hecs::Entity, Shape, Transform, Option<MaterialOf>)> = world
         .query::<(hecs::Entity, &Shape, &Transform, Option<&MaterialOf>)>()
         .iter()
-        .map(|(e, s, t, m)| (e, *s, *t, m.copied()))
+        .map(|(e, s, t, m)| (e, s.clone(), *t, m.copied()))
         .collect();
     objs.sort_by_key(|(e, ..)| e.id());
     let mut objects = Vec::with_capacity(objs.len());

@@ -6,7 +6,7 @@ use glam::{Affine3A, Mat3A, Vec3};
 use crate::{Aabb, Bvh, Shape};
 
 /// One placed shape.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Object {
     /// The canonical shape.
     pub shape: Shape,
@@ -201,7 +201,7 @@ mod tests {
         let objects = spec
             .iter()
             .map(|&(k, t, s, r)| {
-                let shape = [Shape::Sphere, Shape::Cube, Shape::Plane][k as usize % 3];
+                let shape = [Shape::Sphere, Shape::Cube, Shape::Plane][k as usize % 3].clone();
                 let m = Affine3A::from_scale_rotation_translation(
                     Vec3::splat(s),
                     Quat::from_euler(glam::EulerRot::XYZ, r[0], r[1], r[2]),

@@ -6,6 +6,7 @@
 
 mod aabb;
 mod bvh;
+mod csg;
 mod geometry;
 mod quartic;
 mod shape;
@@ -13,5 +14,6 @@ mod torus;
 
 pub use aabb::Aabb;
 pub use bvh::Bvh;
+pub use csg::{Csg, CsgNode, CsgOp, Span, combine};
 pub use geometry::{Geometry, Hit, NO_SKIP, Object, Origin, offset_origin};
 pub use shape::Shape;

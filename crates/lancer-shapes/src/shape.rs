@@ -5,7 +5,7 @@ use glam::Vec3;
 use crate::Aabb;
 
 /// A canonical shape in object space. A closed set: one `match` per query.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
     /// Radius 1 at the origin.
     Sphere,
@@ -24,6 +24,8 @@ pub enum Shape {
     },
     /// The unit disk in the plane y = 0, normal +y (flat: it has no inside).
     Disk,
+    /// A constructive solid geometry tree.
+    Csg(std::sync::Arc<crate::Csg>),
 }
 
 /// A crossing of the surface: distance along the ray and outward normal (object space).
@@ -31,10 +33,10 @@ type Crossing = (f32, Vec3);
 
 impl Shape {
     /// Every shape's name as scene files spell it, in documentation order.
-    pub const NAMES: &'static [&'static str] = &["sphere", "cube", "plane", "cylinder", "cone", "torus", "disk"];
+    pub const NAMES: &'static [&'static str] = &["sphere", "cube", "plane", "cylinder", "cone", "torus", "disk", "csg"];
 
     /// The name scene files use.
-    pub fn name(self) -> &'static str {
+    pub fn name(&self) -> &'static str {
         match self {
             Shape::Sphere => "sphere",
             Shape::Cube => "cube",
@@ -43,6 +45,7 @@ impl Shape {
             Shape::Cone => "cone",
             Shape::Torus { .. } => "torus",
             Shape::Disk => "disk",
+            Shape::Csg(_) => "csg",
         }
     }
 
@@ -63,12 +66,12 @@ impl Shape {
 
     /// Whether the shape is convex (a plane and a disk count): a ray leaving its surface never
     /// meets it again, so secondary rays may ignore it.
-    pub fn is_convex(self) -> bool {
-        !matches!(self, Shape::Torus { .. })
+    pub fn is_convex(&self) -> bool {
+        !matches!(self, Shape::Torus { .. } | Shape::Csg(_))
     }
 
     /// Whether the shape encloses a volume, so a ray inside it has an exit point.
-    pub fn is_closed(self) -> bool {
+    pub fn is_closed(&self) -> bool {
         !matches!(self, Shape::Disk)
     }
 
@@ -76,13 +79,13 @@ impl Shape {
     /// planar mappings (plane, disk, cylinder and cone caps), which use `(x, z) / scale` and tile.
     /// Spheres, cylinders, cones and tori wrap `u` once around the y axis; `v` goes from bottom
     /// (0) to top (1) (around the tube, for a torus); each cube face gets the whole image.
-    pub fn uv(self, p: Vec3, scale: f32) -> glam::Vec2 {
+    pub fn uv(&self, p: Vec3, scale: f32) -> glam::Vec2 {
         use std::f32::consts::{PI, TAU};
         let around = 0.5 + p.z.atan2(p.x) / TAU;
         let planar = glam::Vec2::new(p.x, p.z) / scale;
         match self {
             Shape::Sphere => glam::Vec2::new(around, 0.5 + p.y.clamp(-1.0, 1.0).asin() / PI),
-            Shape::Plane | Shape::Disk => planar,
+            Shape::Plane | Shape::Disk | Shape::Csg(_) => planar,
             Shape::Cylinder | Shape::Cone => {
                 if p.y.abs() >= 1.0 - 1e-4 {
                     planar
@@ -109,25 +112,52 @@ impl Shape {
     }
 
     /// Object-space bounds; `None` for unbounded shapes.
-    pub fn bounds(self) -> Option<Aabb> {
+    pub fn bounds(&self) -> Option<Aabb> {
         match self {
             Shape::Sphere | Shape::Cube | Shape::Cylinder | Shape::Cone => {
                 Some(Aabb { min: Vec3::splat(-1.0), max: Vec3::ONE })
             }
-            Shape::Torus { minor } => Some(Aabb {
+            &Shape::Torus { minor } => Some(Aabb {
                 min: Vec3::new(-1.0 - minor, -minor, -1.0 - minor),
                 max: Vec3::new(1.0 + minor, minor, 1.0 + minor),
             }),
             // A sliver of thickness so the slab test never divides a zero-width box.
             Shape::Disk => Some(Aabb { min: Vec3::new(-1.0, -1e-4, -1.0), max: Vec3::new(1.0, 1e-4, 1.0) }),
+            Shape::Csg(csg) => csg.bounds(),
             Shape::Plane => None,
+        }
+    }
+
+    /// The parts of the line `o + t d` inside the shape, sorted and disjoint, with outward
+    /// normals at their ends (infinite ends for a plane's half-space). None for a disk.
+    pub fn spans(&self, o: Vec3, d: Vec3) -> Vec<crate::Span> {
+        let one = |((t0, n0), (t1, n1)): (Crossing, Crossing)| vec![crate::Span { t0, n0, t1, n1 }];
+        match self {
+            Shape::Plane => {
+                if d.y == 0.0 {
+                    return if o.y < 0.0 { one(ALL) } else { Vec::new() };
+                }
+                let t = -o.y / d.y;
+                if d.y > 0.0 {
+                    one(((f32::NEG_INFINITY, Vec3::ZERO), (t, Vec3::Y)))
+                } else {
+                    one(((t, Vec3::Y), (f32::INFINITY, Vec3::ZERO)))
+                }
+            }
+            Shape::Disk => Vec::new(),
+            Shape::Torus { minor } => {
+                let roots = crate::torus::roots(*minor, o, d);
+                roots.chunks_exact(2).map(|p| crate::Span { t0: p[0].0, n0: p[0].1, t1: p[1].0, n1: p[1].1 }).collect()
+            }
+            Shape::Csg(csg) => csg.spans(o, d),
+            _ => self.span(o, d).map(one).unwrap_or_default(),
         }
     }
 
     /// Where the line `o + t d` is inside a convex solid: entry and exit crossings (entry may
     /// be behind the origin). `None` for a line that misses, or for non-convex and flat shapes.
     #[inline]
-    fn span(self, o: Vec3, d: Vec3) -> Option<(Crossing, Crossing)> {
+    fn span(&self, o: Vec3, d: Vec3) -> Option<(Crossing, Crossing)> {
         match self {
             Shape::Sphere => {
                 let (t0, t1) = sphere_roots(o, d)?;
@@ -137,14 +167,14 @@ impl Shape {
             Shape::Cube => cube_span(o, d),
             Shape::Cylinder => cylinder_span(o, d),
             Shape::Cone => cone_span(o, d),
-            Shape::Plane | Shape::Torus { .. } | Shape::Disk => None,
+            Shape::Plane | Shape::Torus { .. } | Shape::Disk | Shape::Csg(_) => None,
         }
     }
 
     /// The first surface crossing of `o + t d` with `tmin < t < tmax`: `(t, outward unit normal)`.
     /// `d` need not be unit length (object-space rays carry the transform's scale).
     #[inline]
-    pub fn intersect(self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
         let ok = |t: f32| t > tmin && t < tmax;
         match self {
             Shape::Plane => {
@@ -162,7 +192,8 @@ impl Shape {
                 let p = o + t * d;
                 (ok(t) && p.x * p.x + p.z * p.z <= 1.0).then_some((t, Vec3::Y))
             }
-            Shape::Torus { minor } => crate::torus::first_hit(minor, o, d, tmin, tmax),
+            Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, tmin, tmax),
+            Shape::Csg(csg) => first_boundary(&csg.spans(o, d), tmin, tmax),
             _ => {
                 let ((t0, n0), (t1, n1)) = self.span(o, d)?;
                 if ok(t0) {
@@ -180,7 +211,7 @@ impl Shape {
     /// with the outward normal there. `None` when the ray never leaves (a plane's half-space) or
     /// the shape has no inside (a disk).
     #[inline]
-    pub fn exit(self, o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
+    pub fn exit(&self, o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
         match self {
             Shape::Plane => {
                 if d.y <= 0.0 {
@@ -190,13 +221,20 @@ impl Shape {
                 (t > 0.0).then_some((t, Vec3::Y))
             }
             Shape::Disk => None,
-            Shape::Torus { minor } => crate::torus::first_hit(minor, o, d, 0.0, f32::INFINITY),
+            Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, 0.0, f32::INFINITY),
+            Shape::Csg(csg) => first_boundary(&csg.spans(o, d), 0.0, f32::INFINITY),
             _ => {
                 let (_, (t1, n1)) = self.span(o, d)?;
                 (t1 > 0.0).then_some((t1, n1))
             }
         }
     }
+}
+
+/// The first span boundary with `tmin < t < tmax`.
+#[inline]
+fn first_boundary(spans: &[crate::Span], tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+    spans.iter().flat_map(|s| [(s.t0, s.n0), (s.t1, s.n1)]).find(|&(t, _)| t > tmin && t < tmax)
 }
 
 /// The intersection of two parameter intervals given by their entry and exit crossings.

@@ -16,24 +16,25 @@ pub fn normal(p: Vec3) -> Vec3 {
     (p - centre).normalize_or(Vec3::Y)
 }
 
-/// The first crossing of the torus surface by `o + t d` with `tmin < t < tmax`.
-pub fn first_hit(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+/// Every crossing of the torus surface by the line `o + t d`, ascending, with outward normals:
+/// an even number (0, 2 or 4), entering and leaving in turn.
+pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
     let len = d.length();
     if len == 0.0 {
-        return None;
+        return Vec::new();
     }
     let (od, dd) = (o.as_dvec3(), d.as_dvec3() / len as f64);
     let r = minor as f64;
-    // Start from where the ray enters the bounding sphere (radius 1 + r), which keeps the
-    // quartic's coefficients near 1 however far the origin is.
+    // Start from the point of the line nearest the bounding sphere's entry (radius 1 + r),
+    // which keeps the quartic's coefficients near 1 however far the origin is.
     let bound = 1.0 + r;
     let b = od.dot(dd);
     let c = od.dot(od) - bound * bound;
     let disc = b * b - c;
     if disc < 0.0 {
-        return None;
+        return Vec::new();
     }
-    let shift = (-b - disc.sqrt()).max(0.0);
+    let shift = -b - disc.sqrt();
     let p = od + shift * dd;
     // |p + s d|² + 1 − r² squared minus 4 (x² + z²), with |d| = 1.
     let g = p.dot(p) + 1.0 - r * r;
@@ -45,15 +46,31 @@ pub fn first_hit(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(
     let a2 = 4.0 * h * h + 2.0 * g - 4.0 * horiz_dd;
     let a1 = 4.0 * h * g - 8.0 * horiz_pd;
     let a0 = g * g - 4.0 * horiz_pp;
-    let (tmin, tmax) = (tmin as f64 * len as f64, tmax as f64 * len as f64);
-    for s in quartic_roots(a3, a2, a1, a0) {
-        let t = s + shift;
-        if t > tmin && t < tmax {
-            let hit = od + t * dd;
-            return Some(((t / len as f64) as f32, normal(hit.as_vec3())));
+    let mut out: Vec<(f32, Vec3)> = quartic_roots(a3, a2, a1, a0)
+        .into_iter()
+        .map(|s| {
+            let t = s + shift;
+            ((t / len as f64) as f32, normal((od + t * dd).as_vec3()))
+        })
+        .collect();
+    // A grazing double root may come out once: pair it with itself so entering and leaving
+    // still alternate.
+    if out.len() % 2 == 1 {
+        let i = (1..out.len()).min_by(|&i, &j| (out[i].0 - out[i - 1].0).total_cmp(&(out[j].0 - out[j - 1].0)));
+        match i {
+            Some(i) if out.len() > 1 => {
+                out.remove(i);
+                out.remove(i - 1);
+            }
+            _ => out.clear(),
         }
     }
-    None
+    out
+}
+
+/// The first crossing of the torus surface by `o + t d` with `tmin < t < tmax`.
+pub fn first_hit(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+    roots(minor, o, d).into_iter().find(|&(t, _)| t > tmin && t < tmax)
 }
 
 #[cfg(test)]

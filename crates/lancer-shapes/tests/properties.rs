@@ -4,13 +4,13 @@
 //! with intersecting in object space.
 
 use glam::{Affine3A, EulerRot, Quat, Vec3};
-use lancer_shapes::{Object, Shape, offset_origin};
+use lancer_shapes::{Csg, CsgNode, CsgOp, Object, Shape, offset_origin};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
 /// How far an object-space point is from the shape's surface (0 on it; not always a true
 /// distance, but zero exactly on the surface), from the shapes' definitions in SCENE-FORMAT.md.
-fn surface_distance(shape: Shape, p: Vec3) -> f32 {
+fn surface_distance(shape: &Shape, p: Vec3) -> f32 {
     let rho = (p.x * p.x + p.z * p.z).sqrt();
     match shape {
         Shape::Sphere => (p.length() - 1.0).abs(),
@@ -20,12 +20,13 @@ fn surface_distance(shape: Shape, p: Vec3) -> f32 {
         Shape::Cone => (rho - (1.0 - p.y) / 2.0).max(-1.0 - p.y).abs(),
         Shape::Torus { minor } => (((rho - 1.0).powi(2) + p.y * p.y).sqrt() - minor).abs(),
         Shape::Disk => p.y.abs().max((rho - 1.0).max(0.0)),
+        Shape::Csg(_) => unreachable!("CSG has its own test"),
     }
 }
 
 /// The outward normal in object space at a surface point; `None` on an edge, where it is not
 /// defined.
-fn object_normal(shape: Shape, p: Vec3) -> Option<Vec3> {
+fn object_normal(shape: &Shape, p: Vec3) -> Option<Vec3> {
     let rho = (p.x * p.x + p.z * p.z).sqrt();
     let near = |a: f32, b: f32| (a - b).abs() < 1e-3;
     Some(match shape {
@@ -63,11 +64,12 @@ fn object_normal(shape: Shape, p: Vec3) -> Option<Vec3> {
             let c = Vec3::new(p.x / rho, 0.0, p.z / rho);
             (p - c).normalize()
         }
+        Shape::Csg(_) => unreachable!("CSG has its own test"),
     })
 }
 
 /// A point strictly inside a closed shape, from three numbers in [-1, 1].
-fn inside_point(shape: Shape, u: Vec3) -> Vec3 {
+fn inside_point(shape: &Shape, u: Vec3) -> Vec3 {
     match shape {
         Shape::Sphere => u * 0.55,
         Shape::Cube => u * 0.95,
@@ -78,10 +80,10 @@ fn inside_point(shape: Shape, u: Vec3) -> Vec3 {
             Vec3::new(u.x * r, y, u.z * r)
         }
         Shape::Torus { minor } => {
-            let a = u.x * std::f32::consts::PI;
+            let (a, minor) = (u.x * std::f32::consts::PI, *minor);
             Vec3::new(a.cos(), 0.0, a.sin()) * (1.0 + u.z * minor * 0.5) + Vec3::Y * u.y * minor * 0.5
         }
-        Shape::Plane | Shape::Disk => unreachable!("not closed"),
+        Shape::Plane | Shape::Disk | Shape::Csg(_) => unreachable!("not in this test"),
     }
 }
 
@@ -114,8 +116,8 @@ const SHAPES: [Shape; 7] =
 fn hits_are_on_the_surface_with_unit_outward_normals_and_match_object_space() {
     runner(1)
         .run(&(0usize..SHAPES.len(), transform(), unit(), unit()), |(k, m, aim, dir)| {
-            let shape = SHAPES[k];
-            let obj = Object::new(shape, m, 0).unwrap();
+            let shape = SHAPES[k].clone();
+            let obj = Object::new(shape.clone(), m, 0).unwrap();
             // Aim at a point near the object so most rays hit.
             let target = m.transform_point3(aim * 0.9);
             let origin = target
@@ -123,9 +125,9 @@ fn hits_are_on_the_surface_with_unit_outward_normals_and_match_object_space() {
             let Some((t, n)) = obj.intersect(origin, dir, 0.0, f32::INFINITY) else { return Ok(()) };
             let p_world = origin + t * dir;
             let p_obj = m.inverse().transform_point3(p_world);
-            prop_assert!(surface_distance(shape, p_obj) < 1e-3, "{shape:?}: {p_obj} is off the surface");
+            prop_assert!(surface_distance(&shape, p_obj) < 1e-3, "{shape:?}: {p_obj} is off the surface");
             prop_assert!((n.length() - 1.0).abs() < 1e-5);
-            if let Some(on) = object_normal(shape, p_obj) {
+            if let Some(on) = object_normal(&shape, p_obj) {
                 let expected = (m.inverse().matrix3.transpose() * on).normalize();
                 prop_assert!(n.dot(expected) > 0.999, "{shape:?}: normal {n} vs {expected} at {p_obj}");
             }
@@ -144,13 +146,13 @@ fn exits_from_inside_are_on_the_surface_and_ahead() {
     let closed: Vec<Shape> = SHAPES.into_iter().filter(|s| s.is_closed() && *s != Shape::Plane).collect();
     runner(2)
         .run(&(0..closed.len(), transform(), prop::array::uniform3(-1f32..1.0), unit()), |(k, m, u, dir)| {
-            let shape = closed[k];
-            let obj = Object::new(shape, m, 0).unwrap();
-            let o = m.transform_point3(inside_point(shape, Vec3::from(u)));
+            let shape = closed[k].clone();
+            let obj = Object::new(shape.clone(), m, 0).unwrap();
+            let o = m.transform_point3(inside_point(&shape, Vec3::from(u)));
             let (t, n) = obj.exit(o, dir).expect("a closed shape is always left");
             prop_assert!(t > 0.0);
             let p_obj = m.inverse().transform_point3(o + t * dir);
-            prop_assert!(surface_distance(shape, p_obj) < 1e-3, "{shape:?}: exit {p_obj} off the surface");
+            prop_assert!(surface_distance(&shape, p_obj) < 1e-3, "{shape:?}: exit {p_obj} off the surface");
             prop_assert!(n.dot(dir) > -1e-3, "{shape:?}: the exit normal faces the way out");
             Ok(())
         })
@@ -161,11 +163,11 @@ fn exits_from_inside_are_on_the_surface_and_ahead() {
 fn a_ray_leaving_a_convex_shape_never_meets_it_again() {
     runner(3)
         .run(&(0usize..SHAPES.len(), transform(), unit(), unit(), unit()), |(k, m, aim, dir, out)| {
-            let shape = SHAPES[k];
+            let shape = SHAPES[k].clone();
             if !shape.is_convex() {
                 return Ok(());
             }
-            let obj = Object::new(shape, m, 0).unwrap();
+            let obj = Object::new(shape.clone(), m, 0).unwrap();
             let target = m.transform_point3(aim * 0.9);
             let Some((t, n)) = obj.intersect(target - dir * 50.0, dir, 0.0, f32::INFINITY) else { return Ok(()) };
             let p = target - dir * 50.0 + t * dir;
@@ -179,4 +181,67 @@ fn a_ray_leaving_a_convex_shape_never_meets_it_again() {
             Ok(())
         })
         .unwrap();
+}
+
+/// Whether an object-space point is inside a cube-minus-sphere-union-cylinder tree, by point
+/// membership (independent of the span arithmetic under test).
+fn inside_tree(op: CsgOp, p: Vec3) -> bool {
+    let cube = p.abs().max_element() < 1.0;
+    let ball = (p / 1.2).length() < 1.0;
+    let a = match op {
+        CsgOp::Union => cube || ball,
+        CsgOp::Intersection => cube && ball,
+        CsgOp::Difference => cube && !ball,
+    };
+    // Union with a cylinder of radius 0.3 along x, from x = -1.5 to 1.5 (rotated 90° about z).
+    let cyl = p.y * p.y + p.z * p.z < 0.09 && p.x.abs() < 1.5;
+    a || cyl
+}
+
+fn tree(op: CsgOp) -> Csg {
+    let nodes = vec![
+        CsgNode::Leaf { shape: Shape::Cube, node_from_leaf: Affine3A::IDENTITY },
+        CsgNode::Leaf { shape: Shape::Sphere, node_from_leaf: Affine3A::from_scale(Vec3::splat(1.2)) },
+        CsgNode::Op { op, a: 0, b: 1 },
+        CsgNode::Leaf {
+            shape: Shape::Cylinder,
+            node_from_leaf: Affine3A::from_rotation_z(std::f32::consts::FRAC_PI_2)
+                * Affine3A::from_scale(Vec3::new(0.3, 1.5, 0.3)),
+        },
+        CsgNode::Op { op: CsgOp::Union, a: 2, b: 3 },
+    ];
+    Csg::new(nodes, 4).unwrap()
+}
+
+#[test]
+fn csg_hits_are_where_point_membership_changes() {
+    for op in [CsgOp::Union, CsgOp::Intersection, CsgOp::Difference] {
+        let shape = Shape::Csg(std::sync::Arc::new(tree(op)));
+        runner(4)
+            .run(&(prop::array::uniform3(-1.3f32..1.3), unit()), |(aim, dir)| {
+                let origin = Vec3::from(aim) - dir * 6.0;
+                let spans = shape.spans(origin, dir);
+                let bounds: Vec<(f32, Vec3)> = spans.iter().flat_map(|s| [(s.t0, s.n0), (s.t1, s.n1)]).collect();
+                // The first hit is the first boundary ahead.
+                let first = bounds.iter().find(|(t, _)| *t > 0.0).map(|b| b.0);
+                prop_assert_eq!(shape.intersect(origin, dir, 0.0, f32::INFINITY).map(|h| h.0), first);
+                // Membership flips across every boundary: probe at a third of the gap to its
+                // neighbours, so two boundaries close together are not straddled.
+                for (k, &(th, n)) in bounds.iter().enumerate() {
+                    let prev = if k > 0 { th - bounds[k - 1].0 } else { 1.0 };
+                    let next = if k + 1 < bounds.len() { bounds[k + 1].0 - th } else { 1.0 };
+                    let eps = (prev.min(next) / 3.0).min(1e-3);
+                    if eps < 1e-5 {
+                        continue;
+                    }
+                    let (ib, ia) =
+                        (inside_tree(op, origin + (th - eps) * dir), inside_tree(op, origin + (th + eps) * dir));
+                    prop_assert!(ib != ia, "{op:?}: no membership change at t = {th}");
+                    // Entering (inside after) the outward normal faces the ray.
+                    prop_assert!((n.dot(dir) < 0.0) == ia, "{op:?}: normal {n} at t = {th}");
+                }
+                Ok(())
+            })
+            .unwrap();
+    }
 }
