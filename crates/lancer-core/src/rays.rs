@@ -80,6 +80,9 @@ pub struct Hits {
     pub point: Vec<Vec3>,
     /// Hit point in the object's own space (for patterns and texture coordinates).
     pub local: Vec<Vec3>,
+    /// Texture coordinates interpolated from a mesh's vertices (zero for other shapes, whose
+    /// coordinates follow from `local`).
+    pub uv: Vec<glam::Vec2>,
     /// Unit outward geometric normal (the side the shape calls outside).
     pub normal: Vec<Vec3>,
     /// Whether the ray arrived from outside (`normal · dir < 0`).
@@ -95,6 +98,7 @@ impl Hits {
             t: vec![f32::INFINITY; n],
             point: vec![Vec3::ZERO; n],
             local: vec![Vec3::ZERO; n],
+            uv: vec![glam::Vec2::ZERO; n],
             normal: vec![Vec3::ZERO; n],
             front: vec![true; n],
             object: vec![NO_HIT; n],

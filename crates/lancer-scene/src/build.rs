@@ -7,7 +7,7 @@ use std::ops::Range;
 use glam::{Affine3A, Mat3, Vec3};
 use lancer_core::{Camera, ImageSettings, Light, Material, MaterialOf, Meta, Pattern, Scene, Texture, Transform};
 use lancer_shading::{ParamValue, Params, Pipeline, Registry};
-use lancer_shapes::{CsgNode, CsgOp, Shape};
+use lancer_shapes::{CsgNode, CsgOp, Mesh, Shape};
 use toml::Spanned;
 
 use crate::doc::{
@@ -60,6 +60,7 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
     let mut world = hecs::World::new();
 
     let mut textures = Textures { list: Vec::new(), by_path: HashMap::new(), resolve };
+    let mut meshes = Meshes::default();
     let mut named: HashMap<&str, hecs::Entity> = HashMap::new();
     for (name, m) in &doc.materials {
         let m = material(&cx, m, &mut textures)?;
@@ -76,9 +77,27 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
             op: &obj.op,
             a: obj.a.as_ref(),
             b: obj.b.as_ref(),
+            path: obj.path.as_ref(),
             at: o.span(),
         };
-        let shape = build_shape(&cx, &fields)?;
+        let shape = if obj.shape.get_ref() == "mesh" {
+            let path = obj.path.as_ref().ok_or_else(|| {
+                cx.err(
+                    o.span(),
+                    LoadErrorKind::Syntax("a mesh needs `path = \"file.obj\"` (relative to the scene file)".into()),
+                )
+            })?;
+            for (key, span) in
+                [("minor", obj.minor.as_ref().map(|x| x.span())), ("op", obj.op.as_ref().map(|x| x.span()))]
+            {
+                if let Some(span) = span {
+                    return Err(cx.err(span, LoadErrorKind::Syntax(format!("`{key}` does not apply to a mesh"))));
+                }
+            }
+            Shape::Mesh(meshes.load(&cx, path, textures.resolve)?)
+        } else {
+            build_shape(&cx, &fields)?
+        };
         let mat = match obj.material.as_ref().map(|m| (m.span(), m.get_ref())) {
             None => None,
             Some((_, MaterialRef::Inline(m))) => {
@@ -140,6 +159,8 @@ struct ShapeFields<'d> {
     op: &'d Option<Spanned<String>>,
     a: Option<&'d Spanned<Box<OperandDoc>>>,
     b: Option<&'d Spanned<Box<OperandDoc>>>,
+    /// A mesh's file (objects only).
+    path: Option<&'d Spanned<String>>,
     /// The whole table, for errors about missing keys.
     at: Range<usize>,
 }
@@ -147,13 +168,30 @@ struct ShapeFields<'d> {
 impl<'d> ShapeFields<'d> {
     fn of(o: &'d Spanned<Box<OperandDoc>>) -> ShapeFields<'d> {
         let d = o.get_ref();
-        ShapeFields { shape: &d.shape, minor: &d.minor, op: &d.op, a: d.a.as_ref(), b: d.b.as_ref(), at: o.span() }
+        ShapeFields {
+            shape: &d.shape,
+            minor: &d.minor,
+            op: &d.op,
+            a: d.a.as_ref(),
+            b: d.b.as_ref(),
+            path: None,
+            at: o.span(),
+        }
     }
 }
 
 fn build_shape(cx: &Ctx<'_>, f: &ShapeFields<'_>) -> Result<Shape, LoadError> {
     let syntax = |span: Range<usize>, msg: String| cx.err(span, LoadErrorKind::Syntax(msg));
     let name = f.shape.get_ref();
+    if name == "mesh" {
+        return Err(syntax(
+            f.shape.span(),
+            "a mesh cannot be a csg operand (CSG needs shapes with exact insides)".into(),
+        ));
+    }
+    if let Some(p) = f.path {
+        return Err(syntax(p.span(), format!("`path` belongs to a mesh; a {name} has none")));
+    }
     if name == "csg" {
         if let Some(m) = f.minor {
             return Err(syntax(m.span(), "`minor` is a torus parameter; a csg has none".into()));
@@ -244,6 +282,50 @@ fn csg_node(
 
 fn vec3(v: [Num; 3]) -> Vec3 {
     Vec3::new(v[0].0, v[1].0, v[2].0)
+}
+
+/// Meshes loaded so far, each file once (objects that share a file share the mesh).
+#[derive(Default)]
+struct Meshes {
+    by_path: HashMap<String, std::sync::Arc<Mesh>>,
+}
+
+impl Meshes {
+    fn load(
+        &mut self,
+        cx: &Ctx<'_>,
+        path: &Spanned<String>,
+        resolve: Resolver<'_>,
+    ) -> Result<std::sync::Arc<Mesh>, LoadError> {
+        if let Some(m) = self.by_path.get(path.get_ref()) {
+            return Ok(m.clone());
+        }
+        let bad = |msg: String| cx.err(path.span(), LoadErrorKind::Syntax(format!("mesh `{}`: {msg}", path.get_ref())));
+        let bytes = resolve(path.get_ref()).map_err(bad)?;
+        let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+        // Materials come from the scene, not from the OBJ's mtllib: ignore it.
+        let no_materials = |_: &std::path::Path| -> tobj::MTLLoadResult { Ok((Vec::new(), Default::default())) };
+        let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, no_materials)
+            .map_err(|e| bad(format!("not a readable OBJ file ({e})")))?;
+        let (mut positions, mut normals, mut uvs, mut triangles) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let smooth = models.iter().all(|m| !m.mesh.normals.is_empty());
+        let textured = models.iter().all(|m| !m.mesh.texcoords.is_empty());
+        for model in &models {
+            let m = &model.mesh;
+            let base = positions.len() as u32;
+            positions.extend(m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+            if smooth {
+                normals.extend(m.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
+            }
+            if textured {
+                uvs.extend(m.texcoords.chunks_exact(2).map(|t| glam::Vec2::new(t[0], t[1])));
+            }
+            triangles.extend(m.indices.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
+        }
+        let mesh = std::sync::Arc::new(Mesh::new(positions, normals, uvs, triangles).map_err(|e| bad(e.to_string()))?);
+        self.by_path.insert(path.get_ref().clone(), mesh.clone());
+        Ok(mesh)
+    }
 }
 
 /// Texture images loaded so far, each file once.

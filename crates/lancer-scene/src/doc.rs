@@ -341,6 +341,8 @@ pub struct ObjectDoc {
     pub op: Option<Spanned<String>>,
     pub a: Option<Spanned<Box<OperandDoc>>>,
     pub b: Option<Spanned<Box<OperandDoc>>>,
+    /// A mesh's OBJ file, relative to the scene file.
+    pub path: Option<Spanned<String>>,
 }
 
 /// A CSG operand: a shape (or CSG node) with its own transform, and no material.

@@ -271,3 +271,45 @@ fn csg_objects_and_their_mistakes() {
     let src = format!("{CAMERA}[[objects]]\nshape = \"sphere\"\nop = \"union\"\n");
     assert!(err(&src).to_string().contains("`op` belongs to a csg shape; a sphere has none"));
 }
+
+#[test]
+fn meshes_load_through_the_resolver_and_bad_files_are_located_errors() {
+    let files = |name: &str| -> Result<Vec<u8>, String> {
+        Ok(match name {
+            "tri.obj" => b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".to_vec(),
+            "range.obj" => b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n".to_vec(),
+            "flat.obj" => b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n".to_vec(),
+            "junk.obj" => b"v 0 0 zero\nf 1 2 3\n".to_vec(),
+            _ => return Err("No such file or directory (os error 2)".into()),
+        })
+    };
+    let scene = |path: &str| format!("{CAMERA}[[objects]]\nshape = \"mesh\"\npath = \"{path}\"\n");
+    let load = |src: &str| crate::load_scene_with(src, "s.toml", &Registry::with_builtins(), &files);
+    let l = load(&scene("tri.obj")).unwrap_or_else(|e| panic!("{e}"));
+    match l.scene.world.query::<&Shape>().iter().next().unwrap() {
+        Shape::Mesh(m) => assert!(m.triangle_count() == 1 && !m.is_closed()),
+        other => panic!("{other:?}"),
+    }
+    for (path, message) in [
+        ("missing.obj", "mesh `missing.obj`: No such file or directory"),
+        ("range.obj", "mesh `range.obj`: not a readable OBJ file"),
+        ("flat.obj", "mesh `flat.obj`: triangle 0 is degenerate"),
+        ("junk.obj", "mesh `junk.obj`: not a readable OBJ file"),
+    ] {
+        let src = scene(path);
+        let e = match load(&src) {
+            Err(e) => e,
+            Ok(_) => panic!("{path} should not load"),
+        };
+        assert_eq!((e.line, e.column), pos(&src, &format!("\"{path}\"")), "{path}");
+        assert!(e.to_string().contains(message), "{path}: {e}");
+    }
+    let src = format!("{CAMERA}[[objects]]\nshape = \"mesh\"\n");
+    assert!(err(&src).to_string().contains("a mesh needs `path"));
+    let src = format!(
+        "{CAMERA}[[objects]]\nshape = \"csg\"\nop = \"union\"\na = {{ shape = \"mesh\" }}\nb = {{ shape = \"cube\" }}\n"
+    );
+    assert!(err(&src).to_string().contains("a mesh cannot be a csg operand"));
+    let src = format!("{CAMERA}[[objects]]\nshape = \"cube\"\npath = \"x.obj\"\n");
+    assert!(err(&src).to_string().contains("`path` belongs to a mesh; a cube has none"));
+}

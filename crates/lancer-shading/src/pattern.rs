@@ -7,7 +7,13 @@ use lancer_shapes::Shape;
 
 /// `Col_Ω` of `material` at the object-space point `local` of a `shape`.
 #[inline]
-pub fn surface_color(material: &Material, shape: &Shape, local: Vec3, textures: &[Texture]) -> Vec3 {
+pub fn surface_color(
+    material: &Material,
+    shape: &Shape,
+    local: Vec3,
+    mesh_uv: glam::Vec2,
+    textures: &[Texture],
+) -> Vec3 {
     match material.pattern {
         Pattern::Solid => material.color,
         Pattern::Checker { other, scale } => {
@@ -17,7 +23,7 @@ pub fn surface_color(material: &Material, shape: &Shape, local: Vec3, textures: 
             if (c.x + c.y + c.z).rem_euclid(2.0) < 0.5 { material.color } else { other }
         }
         Pattern::Image { texture, scale } => {
-            let uv = shape.uv(local, scale);
+            let uv = if matches!(shape, Shape::Mesh(_)) { mesh_uv } else { shape.uv(local, scale) };
             textures.get(texture as usize).map_or(material.color, |t| t.sample(uv.x, uv.y))
         }
     }
@@ -34,7 +40,7 @@ mod tests {
             pattern: Pattern::Checker { other: Vec3::ZERO, scale: 1.0 },
             ..Material::default()
         };
-        let at = |x: f32, y: f32, z: f32| surface_color(&m, &Shape::Plane, Vec3::new(x, y, z), &[]);
+        let at = |x: f32, y: f32, z: f32| surface_color(&m, &Shape::Plane, Vec3::new(x, y, z), glam::Vec2::ZERO, &[]);
         assert_eq!(at(0.5, 0.0, 0.5), Vec3::ONE);
         assert_eq!(at(1.5, 0.0, 0.5), Vec3::ZERO);
         assert_eq!(at(1.5, 0.0, 1.5), Vec3::ONE);
@@ -49,7 +55,10 @@ mod tests {
         let t = Texture { width: 2, height: 1, pixels: vec![Vec3::X, Vec3::Z] };
         let m = Material { pattern: Pattern::Image { texture: 0, scale: 2.0 }, ..Material::default() };
         // On a plane, x / scale is u: x = 0.5 → u = 0.25, the red pixel's centre.
-        assert_eq!(surface_color(&m, &Shape::Plane, Vec3::new(0.5, 0.0, 0.3), std::slice::from_ref(&t)), Vec3::X);
-        assert_eq!(surface_color(&m, &Shape::Plane, Vec3::new(1.5, 0.0, 0.3), &[t]), Vec3::Z);
+        assert_eq!(
+            surface_color(&m, &Shape::Plane, Vec3::new(0.5, 0.0, 0.3), glam::Vec2::ZERO, std::slice::from_ref(&t)),
+            Vec3::X
+        );
+        assert_eq!(surface_color(&m, &Shape::Plane, Vec3::new(1.5, 0.0, 0.3), glam::Vec2::ZERO, &[t]), Vec3::Z);
     }
 }

@@ -191,7 +191,17 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
                 hits.t[lane] = h.t;
                 let point = rays.origin[lane] + h.t * rays.dir[lane];
                 hits.point[lane] = point;
-                hits.local[lane] = ctx.geometry.objects[h.object as usize].object_from_world.transform_point3(point);
+                let object = &ctx.geometry.objects[h.object as usize];
+                hits.local[lane] = object.object_from_world.transform_point3(point);
+                if let lancer_shapes::Shape::Mesh(mesh) = &object.shape {
+                    // Texture coordinates: the same triangle again, in a sliver of t around the hit.
+                    let (lo, ld) = (
+                        object.object_from_world.transform_point3(from.point),
+                        object.object_from_world.transform_vector3(rays.dir[lane]),
+                    );
+                    let slack = 1e-4 * h.t.max(1.0);
+                    hits.uv[lane] = mesh.intersect(lo, ld, h.t - slack, h.t + slack).map_or(glam::Vec2::ZERO, |m| m.uv);
+                }
                 hits.normal[lane] = h.normal;
                 hits.front[lane] = h.front;
                 hits.object[lane] = h.object;

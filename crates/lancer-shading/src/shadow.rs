@@ -26,7 +26,13 @@ impl<'a> ShadowContext<'a> {
     /// `Col_Ω` of object `object` at the world point `p` on its surface.
     pub fn color_at(&self, object: u32, p: Vec3) -> Vec3 {
         let o = &self.geometry.objects[object as usize];
-        crate::surface_color(self.material(object), &o.shape, o.object_from_world.transform_point3(p), self.textures)
+        crate::surface_color(
+            self.material(object),
+            &o.shape,
+            o.object_from_world.transform_point3(p),
+            glam::Vec2::ZERO,
+            self.textures,
+        )
     }
 
     /// The closest object between `from` and the distance `dist` along `dir`: a shadow ray,

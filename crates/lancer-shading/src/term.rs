@@ -31,7 +31,13 @@ impl ShadeContext<'_> {
     #[inline]
     pub fn color(&self, hits: &Hits, lane: usize) -> glam::Vec3 {
         let object = &self.geometry.objects[hits.object[lane] as usize];
-        crate::surface_color(&self.materials[object.material as usize], &object.shape, hits.local[lane], self.textures)
+        crate::surface_color(
+            &self.materials[object.material as usize],
+            &object.shape,
+            hits.local[lane],
+            hits.uv[lane],
+            self.textures,
+        )
     }
 }
 

@@ -53,10 +53,16 @@ impl Aabb {
     /// `[0, tmax]`.
     #[inline]
     pub fn hit(&self, o: Vec3, inv_d: Vec3, tmax: f32) -> Option<f32> {
+        self.hit_range(o, inv_d, 0.0, tmax)
+    }
+
+    /// Entry distance if the ray meets the box within `[tmin, tmax]`.
+    #[inline]
+    pub fn hit_range(&self, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
         let t0 = (self.min - o) * inv_d;
         let t1 = (self.max - o) * inv_d;
         // min/max ignore a NaN operand (0 · ∞ on a slab's own plane), which keeps such rays in.
-        let near = t0.min(t1).max_element().max(0.0);
+        let near = t0.min(t1).max_element().max(tmin);
         let far = t0.max(t1).min_element().min(tmax);
         (near <= far).then_some(near)
     }

@@ -92,10 +92,16 @@ impl Bvh {
             return node;
         }
 
-        // Partition in place; ties are kept stable so the build is deterministic.
+        // Partition in place, in one pass (deterministic: it depends only on the input order).
         let slice = &mut self.indices[start..end];
-        slice.sort_by_key(|&i| bin_of(centres[i as usize]) >= best);
-        let mid = start + slice.iter().take_while(|&&i| bin_of(centres[i as usize]) < best).count();
+        let mut mid = 0;
+        for k in 0..slice.len() {
+            if bin_of(centres[slice[k] as usize]) < best {
+                slice.swap(k, mid);
+                mid += 1;
+            }
+        }
+        let mid = start + mid;
         self.split(bounds, centres, start, mid);
         let right = self.split(bounds, centres, mid, end);
         self.nodes[node].start = right as u32;
@@ -107,7 +113,20 @@ impl Bvh {
     /// Visits the items whose boxes the ray `o + t d` meets within `[0, tmax]`, nearer subtrees
     /// first. `visit(item, tmax)` returns the new `tmax` (the closest hit found so far).
     #[inline]
-    pub fn traverse(&self, o: Vec3, d: Vec3, mut tmax: f32, mut visit: impl FnMut(u32, f32) -> f32) -> f32 {
+    pub fn traverse(&self, o: Vec3, d: Vec3, tmax: f32, visit: impl FnMut(u32, f32) -> f32) -> f32 {
+        self.traverse_from(o, d, 0.0, tmax, visit)
+    }
+
+    /// As [`Bvh::traverse`], skipping boxes that end before `tmin`.
+    #[inline]
+    pub fn traverse_from(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        mut tmax: f32,
+        mut visit: impl FnMut(u32, f32) -> f32,
+    ) -> f32 {
         if self.nodes.is_empty() {
             return tmax;
         }
@@ -117,7 +136,7 @@ impl Bvh {
         while top > 0 {
             top -= 1;
             let node = &self.nodes[stack[top] as usize];
-            if node.bounds.hit(o, inv_d, tmax).is_none() {
+            if node.bounds.hit_range(o, inv_d, tmin, tmax).is_none() {
                 continue;
             }
             if node.count > 0 {

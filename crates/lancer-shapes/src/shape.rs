@@ -26,6 +26,8 @@ pub enum Shape {
     Disk,
     /// A constructive solid geometry tree.
     Csg(std::sync::Arc<crate::Csg>),
+    /// A triangle mesh.
+    Mesh(std::sync::Arc<crate::Mesh>),
 }
 
 /// A crossing of the surface: distance along the ray and outward normal (object space).
@@ -33,7 +35,8 @@ type Crossing = (f32, Vec3);
 
 impl Shape {
     /// Every shape's name as scene files spell it, in documentation order.
-    pub const NAMES: &'static [&'static str] = &["sphere", "cube", "plane", "cylinder", "cone", "torus", "disk", "csg"];
+    pub const NAMES: &'static [&'static str] =
+        &["sphere", "cube", "plane", "cylinder", "cone", "torus", "disk", "csg", "mesh"];
 
     /// The name scene files use.
     pub fn name(&self) -> &'static str {
@@ -46,6 +49,7 @@ impl Shape {
             Shape::Torus { .. } => "torus",
             Shape::Disk => "disk",
             Shape::Csg(_) => "csg",
+            Shape::Mesh(_) => "mesh",
         }
     }
 
@@ -67,12 +71,16 @@ impl Shape {
     /// Whether the shape is convex (a plane and a disk count): a ray leaving its surface never
     /// meets it again, so secondary rays may ignore it.
     pub fn is_convex(&self) -> bool {
-        !matches!(self, Shape::Torus { .. } | Shape::Csg(_))
+        !matches!(self, Shape::Torus { .. } | Shape::Csg(_) | Shape::Mesh(_))
     }
 
     /// Whether the shape encloses a volume, so a ray inside it has an exit point.
     pub fn is_closed(&self) -> bool {
-        !matches!(self, Shape::Disk)
+        match self {
+            Shape::Disk => false,
+            Shape::Mesh(m) => m.is_closed(),
+            _ => true,
+        }
     }
 
     /// Texture coordinates of an object-space surface point, each in [0, 1] except for the
@@ -85,7 +93,7 @@ impl Shape {
         let planar = glam::Vec2::new(p.x, p.z) / scale;
         match self {
             Shape::Sphere => glam::Vec2::new(around, 0.5 + p.y.clamp(-1.0, 1.0).asin() / PI),
-            Shape::Plane | Shape::Disk | Shape::Csg(_) => planar,
+            Shape::Plane | Shape::Disk | Shape::Csg(_) | Shape::Mesh(_) => planar,
             Shape::Cylinder | Shape::Cone => {
                 if p.y.abs() >= 1.0 - 1e-4 {
                     planar
@@ -124,6 +132,7 @@ impl Shape {
             // A sliver of thickness so the slab test never divides a zero-width box.
             Shape::Disk => Some(Aabb { min: Vec3::new(-1.0, -1e-4, -1.0), max: Vec3::new(1.0, 1e-4, 1.0) }),
             Shape::Csg(csg) => csg.bounds(),
+            Shape::Mesh(m) => Some(m.bounds()),
             Shape::Plane => None,
         }
     }
@@ -144,7 +153,8 @@ impl Shape {
                     one(((t, Vec3::Y), (f32::INFINITY, Vec3::ZERO)))
                 }
             }
-            Shape::Disk => Vec::new(),
+            // Meshes are not CSG operands (the scene loader refuses them).
+            Shape::Disk | Shape::Mesh(_) => Vec::new(),
             Shape::Torus { minor } => {
                 let roots = crate::torus::roots(*minor, o, d);
                 roots.chunks_exact(2).map(|p| crate::Span { t0: p[0].0, n0: p[0].1, t1: p[1].0, n1: p[1].1 }).collect()
@@ -167,7 +177,7 @@ impl Shape {
             Shape::Cube => cube_span(o, d),
             Shape::Cylinder => cylinder_span(o, d),
             Shape::Cone => cone_span(o, d),
-            Shape::Plane | Shape::Torus { .. } | Shape::Disk | Shape::Csg(_) => None,
+            Shape::Plane | Shape::Torus { .. } | Shape::Disk | Shape::Csg(_) | Shape::Mesh(_) => None,
         }
     }
 
@@ -194,6 +204,7 @@ impl Shape {
             }
             Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, tmin, tmax),
             Shape::Csg(csg) => first_boundary(&csg.spans(o, d), tmin, tmax),
+            Shape::Mesh(m) => m.intersect(o, d, tmin, tmax).map(|h| (h.t, h.normal)),
             _ => {
                 let ((t0, n0), (t1, n1)) = self.span(o, d)?;
                 if ok(t0) {
@@ -223,6 +234,12 @@ impl Shape {
             Shape::Disk => None,
             Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, 0.0, f32::INFINITY),
             Shape::Csg(csg) => first_boundary(&csg.spans(o, d), 0.0, f32::INFINITY),
+            Shape::Mesh(m) => {
+                if !m.is_closed() {
+                    return None;
+                }
+                m.intersect(o, d, 0.0, f32::INFINITY).map(|h| (h.t, h.normal))
+            }
             _ => {
                 let (_, (t1, n1)) = self.span(o, d)?;
                 (t1 > 0.0).then_some((t1, n1))

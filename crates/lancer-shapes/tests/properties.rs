@@ -20,7 +20,7 @@ fn surface_distance(shape: &Shape, p: Vec3) -> f32 {
         Shape::Cone => (rho - (1.0 - p.y) / 2.0).max(-1.0 - p.y).abs(),
         Shape::Torus { minor } => (((rho - 1.0).powi(2) + p.y * p.y).sqrt() - minor).abs(),
         Shape::Disk => p.y.abs().max((rho - 1.0).max(0.0)),
-        Shape::Csg(_) => unreachable!("CSG has its own test"),
+        Shape::Csg(_) | Shape::Mesh(_) => unreachable!("CSG and meshes have their own tests"),
     }
 }
 
@@ -64,7 +64,7 @@ fn object_normal(shape: &Shape, p: Vec3) -> Option<Vec3> {
             let c = Vec3::new(p.x / rho, 0.0, p.z / rho);
             (p - c).normalize()
         }
-        Shape::Csg(_) => unreachable!("CSG has its own test"),
+        Shape::Csg(_) | Shape::Mesh(_) => unreachable!("CSG and meshes have their own tests"),
     })
 }
 
@@ -83,7 +83,7 @@ fn inside_point(shape: &Shape, u: Vec3) -> Vec3 {
             let (a, minor) = (u.x * std::f32::consts::PI, *minor);
             Vec3::new(a.cos(), 0.0, a.sin()) * (1.0 + u.z * minor * 0.5) + Vec3::Y * u.y * minor * 0.5
         }
-        Shape::Plane | Shape::Disk | Shape::Csg(_) => unreachable!("not in this test"),
+        Shape::Plane | Shape::Disk | Shape::Csg(_) | Shape::Mesh(_) => unreachable!("not in this test"),
     }
 }
 
@@ -244,4 +244,40 @@ fn csg_hits_are_where_point_membership_changes() {
             })
             .unwrap();
     }
+}
+
+#[test]
+fn mesh_bvh_gives_the_brute_force_closest_hit() {
+    let tri = prop::array::uniform3(prop::array::uniform3(-3f32..3.0));
+    runner(5)
+        .run(
+            &(
+                prop::collection::vec(tri, 1..200),
+                prop::collection::vec((prop::array::uniform3(-5f32..5.0), unit()), 40),
+            ),
+            |(tris, rays)| {
+                let mut positions = Vec::new();
+                let mut triangles = Vec::new();
+                for t in &tris {
+                    let [a, b, c] = t.map(Vec3::from);
+                    if (b - a).cross(c - a).length() < 1e-2 {
+                        continue;
+                    }
+                    let base = positions.len() as u32;
+                    positions.extend([a, b, c]);
+                    triangles.push([base, base + 1, base + 2]);
+                }
+                if triangles.is_empty() {
+                    return Ok(());
+                }
+                let mesh = lancer_shapes::Mesh::new(positions, Vec::new(), Vec::new(), triangles).unwrap();
+                for (o, d) in rays {
+                    let o = Vec3::from(o);
+                    let fast = mesh.intersect(o, d, 0.0, f32::INFINITY).map(|h| h.t);
+                    prop_assert_eq!(fast, mesh.intersect_brute_force(o, d, 0.0, f32::INFINITY));
+                }
+                Ok(())
+            },
+        )
+        .unwrap();
 }

@@ -1,0 +1,290 @@
+//! Triangle meshes: validated on construction (indices in range, no degenerate or non-finite
+//! triangle), a BVH over their triangles, and watertight ray–triangle intersection (Woop, Benthin
+//! and Wald 2013), so rays never slip through the shared edge of two triangles.
+
+use std::collections::HashMap;
+
+use glam::{Vec2, Vec3};
+
+use crate::{Aabb, Bvh};
+
+/// A triangle mesh in object space. Triangles wind counter-clockwise seen from outside.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    triangles: Vec<[u32; 3]>,
+    bvh: Bvh,
+    bounds: Aabb,
+    closed: bool,
+}
+
+impl PartialEq for Mesh {
+    fn eq(&self, other: &Mesh) -> bool {
+        self.positions == other.positions && self.triangles == other.triangles && self.normals == other.normals
+    }
+}
+
+/// Why a mesh cannot be built.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum MeshError {
+    /// No triangle at all.
+    #[error("the mesh has no triangles")]
+    Empty,
+    /// A triangle names a vertex that does not exist.
+    #[error("triangle {triangle} uses vertex {index}, but there are only {vertices} vertices")]
+    IndexOutOfRange {
+        /// The triangle (0-based, in file order).
+        triangle: usize,
+        /// The index it uses.
+        index: u32,
+        /// How many vertices there are.
+        vertices: usize,
+    },
+    /// A triangle with (nearly) zero area.
+    #[error("triangle {0} is degenerate (its corners are on one line)")]
+    Degenerate(usize),
+    /// A vertex coordinate that is infinite or NaN.
+    #[error("vertex {0} has a coordinate that is not a finite number")]
+    NonFinite(usize),
+    /// Per-vertex normals or texture coordinates whose count does not match the positions.
+    #[error("{what}: {got} given for {vertices} vertices")]
+    Mismatch {
+        /// "normals" or "texture coordinates".
+        what: &'static str,
+        /// How many were given.
+        got: usize,
+        /// How many vertices there are.
+        vertices: usize,
+    },
+}
+
+/// Everything a hit on a mesh tells.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshHit {
+    /// Distance along the ray.
+    pub t: f32,
+    /// Outward unit normal: interpolated from the vertex normals when the mesh has them (turned
+    /// to the geometric normal's side), else the triangle's own.
+    pub normal: Vec3,
+    /// Texture coordinates (zero when the mesh has none).
+    pub uv: Vec2,
+}
+
+/// A ray prepared for the watertight test: the axis it runs most along becomes z.
+struct Sheared {
+    o: Vec3,
+    k: [usize; 3],
+    s: Vec3,
+}
+
+impl Sheared {
+    fn new(o: Vec3, d: Vec3) -> Sheared {
+        let a = d.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        Sheared { o, k: [kx, ky, kz], s: Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]) }
+    }
+
+    /// `(t, barycentric weights of v0, v1, v2)` if the ray meets the triangle with tmin < t < tmax.
+    #[inline]
+    fn hit(&self, v: [Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+        let [kx, ky, kz] = self.k;
+        let rel = v.map(|p| p - self.o);
+        let xy = rel.map(|p| (p[kx] - self.s.x * p[kz], p[ky] - self.s.y * p[kz]));
+        let [(ax, ay), (bx, by), (cx, cy)] = xy;
+        let mut e = Vec3::new(cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
+        if e.x == 0.0 || e.y == 0.0 || e.z == 0.0 {
+            // On an edge in f32: decide it in f64 so neighbouring triangles agree.
+            let [(ax, ay), (bx, by), (cx, cy)] = xy.map(|(x, y)| (x as f64, y as f64));
+            e = Vec3::new((cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32, (bx * ay - by * ax) as f32);
+        }
+        if (e.x < 0.0 || e.y < 0.0 || e.z < 0.0) && (e.x > 0.0 || e.y > 0.0 || e.z > 0.0) {
+            return None;
+        }
+        let det = e.x + e.y + e.z;
+        if det == 0.0 {
+            return None;
+        }
+        let z = Vec3::new(rel[0][kz], rel[1][kz], rel[2][kz]) * self.s.z;
+        let t = e.dot(z) / det;
+        (t > tmin && t < tmax).then(|| (t, e / det))
+    }
+}
+
+impl Mesh {
+    /// A mesh from vertex positions, optional per-vertex normals and texture coordinates (empty
+    /// for none), and triangles as vertex indices.
+    pub fn new(
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        uvs: Vec<Vec2>,
+        triangles: Vec<[u32; 3]>,
+    ) -> Result<Mesh, MeshError> {
+        if triangles.is_empty() {
+            return Err(MeshError::Empty);
+        }
+        let n = positions.len();
+        for (what, got) in [("normals", normals.len()), ("texture coordinates", uvs.len())] {
+            if got != 0 && got != n {
+                return Err(MeshError::Mismatch { what, got, vertices: n });
+            }
+        }
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(MeshError::NonFinite(i));
+        }
+        for (k, tri) in triangles.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= n) {
+                return Err(MeshError::IndexOutOfRange { triangle: k, index, vertices: n });
+            }
+            let [a, b, c] = tri.map(|i| positions[i as usize]);
+            let area2 = (b - a).cross(c - a).length();
+            let scale = (b - a).length().max((c - a).length()).max((c - b).length());
+            if !(area2 > 1e-7 * scale * scale) {
+                return Err(MeshError::Degenerate(k));
+            }
+        }
+        let boxes: Vec<Aabb> = triangles
+            .iter()
+            .map(|t| {
+                t.iter()
+                    .fold(Aabb::EMPTY, |b, &i| b.union(Aabb { min: positions[i as usize], max: positions[i as usize] }))
+            })
+            .collect();
+        let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
+        // Closed (watertight): every edge is shared by exactly two triangles. Vertices at the same
+        // position count as one, so a texture seam (the same point with two sets of texture
+        // coordinates) does not open the mesh.
+        let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
+        let canonical: Vec<u32> = positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| *weld.entry(p.to_array().map(f32::to_bits)).or_insert(i as u32))
+            .collect();
+        let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+        for t in &triangles {
+            let t = t.map(|i| canonical[i as usize]);
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+        let closed = edges.values().all(|&c| c == 2);
+        Ok(Mesh { bvh: Bvh::build(&boxes), positions, normals, uvs, triangles, bounds, closed })
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Whether every edge is shared by exactly two triangles, so the mesh encloses a volume.
+    pub fn is_closed(&self) -> bool {
+        self.closed
+    }
+
+    /// Object-space bounds.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// Whether the file gave per-vertex normals (smooth shading).
+    pub fn is_smooth(&self) -> bool {
+        !self.normals.is_empty()
+    }
+
+    /// The first triangle the ray `o + t d` meets with `tmin < t < tmax`.
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<MeshHit> {
+        let ray = Sheared::new(o, d);
+        let mut best: Option<(u32, f32, Vec3)> = None;
+        self.bvh.traverse_from(o, d, tmin, tmax, |i, tmax| {
+            let tri = self.triangles[i as usize].map(|v| self.positions[v as usize]);
+            match ray.hit(tri, tmin, tmax) {
+                Some((t, w)) => {
+                    best = Some((i, t, w));
+                    t
+                }
+                None => tmax,
+            }
+        });
+        let (i, t, w) = best?;
+        let idx = self.triangles[i as usize];
+        let [a, b, c] = idx.map(|v| self.positions[v as usize]);
+        let geometric = (b - a).cross(c - a).normalize_or(Vec3::Y);
+        let normal = if self.normals.is_empty() {
+            geometric
+        } else {
+            let n = idx.map(|v| self.normals[v as usize]);
+            let s = (w.x * n[0] + w.y * n[1] + w.z * n[2]).normalize_or(geometric);
+            if s.dot(geometric) < 0.0 { -s } else { s }
+        };
+        let uv = if self.uvs.is_empty() {
+            Vec2::ZERO
+        } else {
+            let u = idx.map(|v| self.uvs[v as usize]);
+            w.x * u[0] + w.y * u[1] + w.z * u[2]
+        };
+        Some(MeshHit { t, normal, uv })
+    }
+
+    /// The first hit by testing every triangle, for checking the BVH.
+    pub fn intersect_brute_force(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+        let ray = Sheared::new(o, d);
+        let mut best = None;
+        let mut tmax = tmax;
+        for t in &self.triangles {
+            if let Some((th, _)) = ray.hit(t.map(|v| self.positions[v as usize]), tmin, tmax) {
+                best = Some(th);
+                tmax = th;
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit octahedron: 6 vertices, 8 triangles wound outward.
+    fn octahedron() -> Mesh {
+        let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+        let t = vec![[0, 2, 4], [4, 2, 1], [1, 2, 5], [5, 2, 0], [4, 3, 0], [1, 3, 4], [5, 3, 1], [0, 3, 5]];
+        Mesh::new(p, Vec::new(), Vec::new(), t).unwrap()
+    }
+
+    #[test]
+    fn octahedron_is_closed_and_hit_with_outward_normals() {
+        let m = octahedron();
+        assert!(m.is_closed());
+        let h = m.intersect(Vec3::new(0.1, 0.1, -5.0), Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        assert!((h.t - 4.2).abs() < 1e-5, "{}", h.t);
+        assert!(h.normal.z < 0.0 && (h.normal - Vec3::new(1.0, 1.0, -1.0).normalize()).length() < 1e-5);
+        // Through a vertex and along shared edges: never slips through.
+        for o in [Vec3::new(0.0, 0.0, -5.0), Vec3::new(0.3, 0.0, -5.0), Vec3::new(0.0, -0.4, -5.0)] {
+            assert!(m.intersect(o, Vec3::Z, 0.0, f32::INFINITY).is_some(), "{o}");
+        }
+    }
+
+    #[test]
+    fn bad_meshes_are_refused() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        assert_eq!(Mesh::new(p.clone(), vec![], vec![], vec![]).unwrap_err(), MeshError::Empty);
+        assert_eq!(
+            Mesh::new(p.clone(), vec![], vec![], vec![[0, 1, 3]]).unwrap_err(),
+            MeshError::IndexOutOfRange { triangle: 0, index: 3, vertices: 3 }
+        );
+        let line = vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        assert_eq!(Mesh::new(line, vec![], vec![], vec![[0, 1, 2]]).unwrap_err(), MeshError::Degenerate(0));
+        assert!(!Mesh::new(p, vec![], vec![], vec![[0, 1, 2]]).unwrap().is_closed(), "one triangle is open");
+    }
+}
