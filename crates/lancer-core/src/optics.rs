@@ -12,12 +12,14 @@ pub fn reflect(u: Vec3, n: Vec3) -> Vec3 {
 
 /// The handout's `VctTransmis(u, N', delta)` with `delta = n1 / n2`.
 ///
-/// `n_t` must be the unit normal on the **transmission side** (`n_t · u >= 0`); callers flip the
-/// outward normal at an entry point (see MODEL.md, "VctTransmis and its sign trap"). Returns `None`
-/// on total internal reflection (`1 - delta² (1 - ps²) < 0`), never a NaN.
+/// `n_t` is the unit normal on the **transmission side** (`n_t · u >= 0`); callers flip the
+/// outward normal at an entry point (see MODEL.md, "VctTransmis and its sign trap"). A normal that
+/// still comes in on the wrong side (an interpolated mesh normal near a silhouette can) is turned
+/// round rather than producing the trap's mirror-like direction. Returns `None` on total internal
+/// reflection (`1 - delta² (1 - ps²) < 0`), never a NaN.
 #[inline]
 pub fn vct_transmis(u: Vec3, n_t: Vec3, delta: f32) -> Option<Vec3> {
-    debug_assert!(n_t.dot(u) >= -1e-4, "normal must be on the transmission side");
+    let n_t = if n_t.dot(u) < 0.0 { -n_t } else { n_t };
     let ps = n_t.dot(u).clamp(-1.0, 1.0);
     let k = 1.0 - delta * delta * (1.0 - ps * ps);
     if k < 0.0 {

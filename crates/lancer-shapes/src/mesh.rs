@@ -150,7 +150,7 @@ impl Mesh {
             let [a, b, c] = tri.map(|i| positions[i as usize]);
             let area2 = (b - a).cross(c - a).length();
             let scale = (b - a).length().max((c - a).length()).max((c - b).length());
-            if !(area2 > 1e-7 * scale * scale) {
+            if area2.is_nan() || area2 <= 1e-7 * scale * scale {
                 return Err(MeshError::Degenerate(k));
             }
         }
