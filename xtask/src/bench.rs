@@ -81,6 +81,27 @@ fn spheres_scene(n: usize) -> String {
     s
 }
 
+/// An OBJ height field of about `triangles` triangles over [-10, 10]², gently rippled.
+fn heightfield_obj(triangles: usize) -> String {
+    let n = ((triangles / 2) as f64).sqrt().round().max(1.0) as usize;
+    let mut s = String::with_capacity(n * n * 60);
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, z) = (-10.0 + 20.0 * i as f64 / n as f64, -10.0 + 20.0 * j as f64 / n as f64);
+            let y = 0.4 * (x * 1.3).sin() * (z * 0.9).cos() + 0.6;
+            let _ = writeln!(s, "v {x:.5} {y:.5} {z:.5}");
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
+            let _ = writeln!(s, "f {a} {c} {d}\nf {a} {d} {b}");
+        }
+    }
+    s
+}
+
 /// `cargo xtask bench [--runs N]`.
 pub fn run(args: &[String]) -> Result<()> {
     let TaskArgs { options, filter } = parse_common(args, &["runs"])?;
@@ -151,6 +172,32 @@ pub fn run(args: &[String]) -> Result<()> {
         let t = median(times);
         // Two threads share the work: per-ray cost in thread-nanoseconds.
         println!("{n:>8} {t:>12.3} {:>12.2} {:>14.1}", rays / 1e6, 2.0 * t * 1e9 / rays);
+    }
+
+    println!("\nScaling with the triangle count (a rippled height-field mesh, 640x360, 2 threads, median of {runs})");
+    println!("{:>10} {:>12} {:>12} {:>14}", "triangles", "render (s)", "M rays", "ns per ray");
+    for n in [10_000usize, 100_000, 1_000_000] {
+        let obj = dir.join(format!("field-{n}.obj"));
+        std::fs::write(&obj, heightfield_obj(n))?;
+        let path = dir.join(format!("field-{n}.toml"));
+        std::fs::write(
+            &path,
+            format!(
+                "[image]\nwidth = 640\nheight = 360\n[camera]\nfrom = [0, 7, -13]\nto = [0, 0, 1]\nfov = 50\n\
+                 [model]\nmax_depth = 2\nshadows = \"hard\"\nterms = [\"ambient\", \"diffuse\", \"specular\", \"mirror\"]\n\
+                 [[lights]]\nat = [-6, 12, -8]\n[[objects]]\nshape = \"mesh\"\npath = \"field-{n}.obj\"\n\
+                 material = {{ color = [0.4, 0.7, 0.5], diff = 0.8, spec = 0.3, shine = 0.9 }}\n"
+            ),
+        )?;
+        let mut times = Vec::new();
+        let mut rays = 0.0;
+        for _ in 0..runs {
+            let (t, r) = lancer_run(&lancer, &path, 2, &[])?;
+            times.push(t);
+            rays = r;
+        }
+        let t = median(times);
+        println!("{n:>10} {t:>12.3} {:>12.2} {:>14.1}", rays / 1e6, 2.0 * t * 1e9 / rays);
     }
     Ok(())
 }
