@@ -193,7 +193,8 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
                 hits.point[lane] = point;
                 let object = &ctx.geometry.objects[h.object as usize];
                 hits.local[lane] = object.object_from_world.transform_point3(point);
-                let textured = matches!(ctx.materials[object.material as usize].pattern, lancer_core::Pattern::Image { .. });
+                let textured =
+                    matches!(ctx.materials[object.material as usize].pattern, lancer_core::Pattern::Image { .. });
                 if let (lancer_shapes::Shape::Mesh(mesh), true) = (&object.shape, textured) {
                     // Texture coordinates: the same triangle again, in a sliver of t around the hit.
                     let (lo, ld) = (

@@ -43,6 +43,14 @@ impl<'a> ShadowContext<'a> {
         self.geometry.closest_hit(from, dir, 0.0, dist)
     }
 
+    /// Whether anything lies between `from` and the distance `dist` along `dir`: a shadow ray
+    /// that stops at the first occluder, counted in [`ShadowContext::rays`].
+    #[inline]
+    pub fn blocked(&self, from: Origin, dir: Vec3, dist: f32) -> bool {
+        self.rays.set(self.rays.get() + 1);
+        self.geometry.any_hit(from, dir, dist)
+    }
+
     /// How many shadow rays were traced through this context.
     pub fn rays(&self) -> u64 {
         self.rays.get()

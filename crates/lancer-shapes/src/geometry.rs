@@ -174,6 +174,29 @@ impl Geometry {
         best
     }
 
+    /// Whether any object (but `from.skip`) lies on the ray within `0 < t < tmax`: a shadow ray
+    /// that may stop at the first occluder it finds.
+    pub fn any_hit(&self, from: Origin, d: Vec3, tmax: f32) -> bool {
+        let (o, skip) = (from.point, from.skip);
+        let blocks = |i: u32| {
+            let obj = &self.objects[i as usize];
+            let (oo, od) = (obj.object_from_world.transform_point3(o), obj.object_from_world.transform_vector3(d));
+            i != skip && obj.shape.occludes(oo, od, tmax)
+        };
+        if self.unbounded.iter().any(|&i| blocks(i)) {
+            return true;
+        }
+        let mut found = false;
+        self.bvh.traverse(o, d, tmax, |item, tmax| {
+            if found || blocks(self.bounded[item as usize]) {
+                found = true;
+                return -1.0;
+            }
+            tmax
+        });
+        found
+    }
+
     /// The closest hit by testing every object, for checking the BVH.
     pub fn closest_hit_brute_force(&self, from: Origin, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let mut best = None;
@@ -232,6 +255,10 @@ mod tests {
                     let a = g.closest_hit(o, d, 1e-4, f32::INFINITY);
                     let b = g.closest_hit_brute_force(o, d, 1e-4, f32::INFINITY);
                     prop_assert_eq!(a.map(|h| h.t), b.map(|h| h.t));
+                    for tmax in [0.5f32, 3.0, 50.0] {
+                        let near = g.closest_hit(o, d, 0.0, tmax).is_some();
+                        prop_assert_eq!(g.any_hit(o, d, tmax), near, "any-hit disagrees within {}", tmax);
+                    }
                 }
                 Ok(())
             })

@@ -236,6 +236,21 @@ impl Mesh {
         Some(MeshHit { t, normal, uv })
     }
 
+    /// Whether any triangle lies on the ray `o + t d` with `0 < t < tmax` (stops at the first).
+    pub fn occludes(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        let ray = Sheared::new(o, d);
+        let mut found = false;
+        self.bvh.traverse(o, d, tmax, |i, tmax| {
+            if found || ray.hit(self.triangles[i as usize].map(|v| self.positions[v as usize]), 0.0, tmax).is_some() {
+                found = true;
+                // A negative bound rejects every remaining box: the traversal winds down.
+                return -1.0;
+            }
+            tmax
+        });
+        found
+    }
+
     /// The first hit by testing every triangle, for checking the BVH.
     pub fn intersect_brute_force(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
         let ray = Sheared::new(o, d);

@@ -218,6 +218,15 @@ impl Shape {
         }
     }
 
+    /// Whether the shape lies on the ray `o + t d` anywhere in `0 < t < tmax` (any hit will do).
+    #[inline]
+    pub fn occludes(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        match self {
+            Shape::Mesh(m) => m.occludes(o, d, tmax),
+            _ => self.intersect(o, d, 0.0, tmax).is_some(),
+        }
+    }
+
     /// Where the line `o + t d`, starting inside the shape, leaves it: the next crossing `t > 0`,
     /// with the outward normal there. `None` when the ray never leaves (a plane's half-space) or
     /// the shape has no inside (a disk).

@@ -28,6 +28,6 @@ struct Hard;
 impl ShadowModel for Hard {
     fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, light: &Light) -> Vec3 {
         let Some((dir, dist)) = ctx.toward(from, light.at) else { return Vec3::ONE };
-        if ctx.occluder(from, dir, dist).is_some() { Vec3::ZERO } else { Vec3::ONE }
+        if ctx.blocked(from, dir, dist) { Vec3::ZERO } else { Vec3::ONE }
     }
 }
