@@ -395,17 +395,7 @@ fn sphere_roots(o: Vec3, d: Vec3) -> Option<(f32, f32)> {
     let b = o.dot(d);
     let q = o - (b / a) * d;
     let disc = a * (1.0 - q.dot(q));
-    if disc < 0.0 {
-        return None;
-    }
-    let c = o.dot(o) - 1.0;
-    let h = -(b + disc.sqrt().copysign(b));
-    if h == 0.0 {
-        // b = 0 and disc = 0: the line grazes the sphere at t = 0.
-        return Some((0.0, 0.0));
-    }
-    let (r0, r1) = (h / a, c / h);
-    Some(if r0 <= r1 { (r0, r1) } else { (r1, r0) })
+    half_quadratic(a, b, o.dot(o) - 1.0, disc)
 }
 
 /// Entry and exit of the line through the box `[-1, 1]^3`, each with its face's outward normal.
