@@ -56,6 +56,18 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// The median render time of `runs` renders of `scene` on `threads` threads, and its ray count.
+fn median_run(lancer: &Path, scene: &Path, threads: u32, runs: usize) -> Result<(f64, f64)> {
+    let mut times = Vec::with_capacity(runs);
+    let mut rays = 0.0;
+    for _ in 0..runs {
+        let (t, r) = lancer_run(lancer, scene, threads, &[])?;
+        times.push(t);
+        rays = r;
+    }
+    Ok((median(times), rays))
+}
+
 fn povray_installed() -> bool {
     Command::new("povray").arg("--version").output().is_ok()
 }
@@ -123,14 +135,7 @@ pub fn run(args: &[String]) -> Result<()> {
         "threads", "lancer (s)", "M rays", "M rays/s", "ns per ray", "povray (s)", "povray / lancer"
     );
     for threads in [1u32, 2] {
-        let mut times = Vec::new();
-        let mut rays = 0.0;
-        for _ in 0..runs {
-            let (t, r) = lancer_run(&lancer, &anchor, threads, &[])?;
-            times.push(t);
-            rays = r;
-        }
-        let t = median(times);
+        let (t, rays) = median_run(&lancer, &anchor, threads, runs)?;
         let (pov_t, ratio) = if has_pov {
             let p = median((0..runs).map(|_| povray_run(&pov, 1280, 720, threads)).collect::<Result<Vec<_>>>()?);
             (format!("{p:.3}"), format!("{:.2}x", p / t))
@@ -162,14 +167,7 @@ pub fn run(args: &[String]) -> Result<()> {
     for n in [10usize, 100, 1_000, 10_000] {
         let path = dir.join(format!("spheres-{n}.toml"));
         std::fs::write(&path, spheres_scene(n))?;
-        let mut times = Vec::new();
-        let mut rays = 0.0;
-        for _ in 0..runs {
-            let (t, r) = lancer_run(&lancer, &path, 2, &[])?;
-            times.push(t);
-            rays = r;
-        }
-        let t = median(times);
+        let (t, rays) = median_run(&lancer, &path, 2, runs)?;
         // Two threads share the work: per-ray cost in thread-nanoseconds.
         println!("{n:>8} {t:>12.3} {:>12.2} {:>14.1}", rays / 1e6, 2.0 * t * 1e9 / rays);
     }
@@ -189,14 +187,7 @@ pub fn run(args: &[String]) -> Result<()> {
                  material = {{ color = [0.4, 0.7, 0.5], diff = 0.8, spec = 0.3, shine = 0.9 }}\n"
             ),
         )?;
-        let mut times = Vec::new();
-        let mut rays = 0.0;
-        for _ in 0..runs {
-            let (t, r) = lancer_run(&lancer, &path, 2, &[])?;
-            times.push(t);
-            rays = r;
-        }
-        let t = median(times);
+        let (t, rays) = median_run(&lancer, &path, 2, runs)?;
         println!("{n:>10} {t:>12.3} {:>12.2} {:>14.1}", rays / 1e6, 2.0 * t * 1e9 / rays);
     }
     Ok(())
