@@ -13,6 +13,9 @@ use lancer_core::Frame;
 use lancer_core::frame::BACKGROUND;
 use lancer_shading::{Params, Pipeline, Registry, RenderOptions};
 
+/// The largest image, in pixels, Lancer agrees to render (8192 × 8192).
+const MAX_PIXELS: u64 = 1 << 26;
+
 /// The scene rendered when no scene file is given (`scenes/showcase.toml`, embedded).
 pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/showcase.toml");
 const DEFAULT_SCENE_NAME: &str = "scenes/showcase.toml (embedded default)";
@@ -164,6 +167,15 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     }
     if let Some(s) = args.samples {
         img.samples = s;
+    }
+    // Every term keeps a float image of the frame: bound the total before allocating any.
+    let pixels = img.width as u64 * img.height as u64;
+    if pixels > MAX_PIXELS {
+        bail!(
+            "an image of {}x{} is {pixels} pixels; Lancer renders at most {MAX_PIXELS} (8192x8192), one float image per term",
+            img.width,
+            img.height
+        );
     }
     if let Some(dir) = &args.aov {
         std::fs::create_dir_all(dir).with_context(|| format!("creating AOV directory {}", dir.display()))?;

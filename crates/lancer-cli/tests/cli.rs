@@ -130,6 +130,10 @@ fn bad_files_and_flags_are_clear_errors() {
     assert_eq!(o.status.code(), Some(2), "clap rejects flags with its usage exit code");
     assert!(stderr(&o).contains("--threads"));
 
+    let o = lancer(dir.path(), &["render", "--width", "16384", "--height", "16384"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("Lancer renders at most 67108864"), "{}", stderr(&o));
+
     let o = lancer(dir.path(), &["render", "--model", "nope.toml"]);
     assert!(stderr(&o).contains("reading model nope.toml"));
     assert_eq!(files(dir.path()), Vec::<String>::new());
