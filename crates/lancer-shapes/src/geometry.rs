@@ -41,17 +41,30 @@ impl Object {
         (self.world_from_object_normal * n_obj).normalize_or(Vec3::Y)
     }
 
+    /// The world ray `o + t d` in object space (same `t`).
+    #[inline]
+    fn to_object(&self, o: Vec3, d: Vec3) -> (Vec3, Vec3) {
+        (self.object_from_world.transform_point3(o), self.object_from_world.transform_vector3(d))
+    }
+
     /// First hit of the world ray `o + t d` with `tmin < t < tmax`.
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
-        let (oo, od) = (self.object_from_world.transform_point3(o), self.object_from_world.transform_vector3(d));
+        let (oo, od) = self.to_object(o, d);
         self.shape.intersect(oo, od, tmin, tmax).map(|(t, n)| (t, self.world_normal(n)))
+    }
+
+    /// Whether the object lies on the world ray within `0 < t < tmax` (any hit will do).
+    #[inline]
+    pub fn occludes(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        let (oo, od) = self.to_object(o, d);
+        self.shape.occludes(oo, od, tmax)
     }
 
     /// Where the world ray `o + t d`, starting inside, leaves this object.
     #[inline]
     pub fn exit(&self, o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
-        let (oo, od) = (self.object_from_world.transform_point3(o), self.object_from_world.transform_vector3(d));
+        let (oo, od) = self.to_object(o, d);
         self.shape.exit(oo, od).map(|(t, n)| (t, self.world_normal(n)))
     }
 
@@ -178,11 +191,7 @@ impl Geometry {
     /// that may stop at the first occluder it finds.
     pub fn any_hit(&self, from: Origin, d: Vec3, tmax: f32) -> bool {
         let (o, skip) = (from.point, from.skip);
-        let blocks = |i: u32| {
-            let obj = &self.objects[i as usize];
-            let (oo, od) = (obj.object_from_world.transform_point3(o), obj.object_from_world.transform_vector3(d));
-            i != skip && obj.shape.occludes(oo, od, tmax)
-        };
+        let blocks = |i: u32| i != skip && self.objects[i as usize].occludes(o, d, tmax);
         if self.unbounded.iter().any(|&i| blocks(i)) {
             return true;
         }
