@@ -185,8 +185,7 @@ fn a_csg_lens_focuses_paraxial_rays_where_the_lensmaker_says() {
     for h in [0.05f32, 0.1, 0.15] {
         let o = Vec3::new(h, 0.0, -10.0);
         let hit = geometry.closest_hit(lancer_shapes::Origin::free(o), Vec3::Z, 0.0, f32::INFINITY).unwrap();
-        let p = o + hit.t * Vec3::Z;
-        let t = passage(&ctx, 0, p, hit.normal, Vec3::Z, n, hit.front).expect("the ray gets through");
+        let t = passage(&ctx, &hit, Vec3::Z, n).expect("the ray gets through");
         // Where the outgoing ray crosses the axis (x = 0).
         let s = -t.from.point.x / t.dir.x;
         let z = (t.from.point.z + s * t.dir.z) as f64;

@@ -4,8 +4,8 @@
 
 use glam::{Affine3A, DVec3, Vec3};
 use lancer_core::{Light, Material};
-use lancer_shading::{ParamValue, Params, Registry, ShadowContext};
-use lancer_shapes::{Geometry, Object, Shape};
+use lancer_shading::{ParamValue, Params, Registry, ShadeContext, ShadowContext};
+use lancer_shapes::{Geometry, Object, Origin, Shape};
 use lancer_tests::{load, load_file, render, root};
 
 fn with_model(scene: &str, model: &str) -> lancer_core::Frame {
@@ -143,15 +143,19 @@ fn soft_shadow_penumbra_matches_the_geometry_of_the_area_light() {
     ];
     let geometry = Geometry::new(objects);
     let materials = [Material::default()];
-    let ctx = ShadowContext::new(&geometry, &materials, &[]);
+    let scene = ShadeContext { geometry: &geometry, materials: &materials, lights: &[], max_depth: 5, textures: &[] };
+    let ctx = ShadowContext::new(&scene);
     let light = Light { at: Vec3::new(0.0, hl as f32, 0.0), color: Vec3::ONE, intensity: 1.0, size: s as f32 };
     let soft = Registry::with_builtins()
         .build_shadow("soft", Params::new([("samples".to_owned(), ParamValue::Number(1024.0))]))
         .unwrap();
-    let model = |x: f64| {
-        let from = geometry.leave(0, Vec3::new(x as f32, 0.0, 0.0), Vec3::Y);
-        soft.model.transmittance(&ctx, from, &light).x as f64
+    let model_in = |ctx: &ShadowContext<'_>, x: f64| {
+        // The floor's hit, from a ray coming straight down onto (x, 0, 0).
+        let o = Origin::free(Vec3::new(x as f32, 0.1, 0.0));
+        let floor = geometry.closest_hit(o, -Vec3::Y, 0.0, f32::INFINITY).expect("the floor is below");
+        soft.model.transmittance(ctx, &floor, &light).x as f64
     };
+    let model = |x: f64| model_in(&ctx, x);
     let reference = |x: f64| visible_fraction(x, s, hl, c, r);
 
     // The 10 %–90 % penumbra width on the +x side.
@@ -175,6 +179,18 @@ fn soft_shadow_penumbra_matches_the_geometry_of_the_area_light() {
     assert_eq!(model(outer * 1.01), 1.0, "fully lit just beyond the outer edge {outer}");
     assert!(model(outer * 0.95) < 1.0, "partly shadowed just inside the outer edge {outer}");
     assert!(reference(outer * 0.95) < 1.0 && reference(outer * 1.01) == 1.0);
-    // The same point always gets the same answer.
-    assert_eq!(model(0.8), model(0.8));
+    // The same point always gets the same answer, whatever was computed before and on which
+    // thread (the jitter is a hash of the point, not a shared random state).
+    let first = model(0.8);
+    let later = std::thread::scope(|s| {
+        s.spawn(|| {
+            let other = ShadowContext::new(&scene);
+            model_in(&other, 0.3);
+            model_in(&other, 0.8)
+        })
+        .join()
+        .unwrap()
+    });
+    assert_eq!(first, later);
+    assert!((first - reference(0.8)).abs() < 0.03, "{first} vs {}", reference(0.8));
 }

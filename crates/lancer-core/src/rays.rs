@@ -83,9 +83,15 @@ pub struct Hits {
     /// Texture coordinates interpolated from a mesh's vertices (zero for other shapes, whose
     /// coordinates follow from `local`).
     pub uv: Vec<glam::Vec2>,
-    /// Unit outward geometric normal (the side the shape calls outside).
+    /// Unit outward geometric normal (the side the shape calls outside): decides front and back
+    /// and where secondary rays start.
     pub normal: Vec<Vec3>,
-    /// Whether the ray arrived from outside (`normal · dir < 0`).
+    /// Unit outward shading normal: interpolated from the vertex normals on smooth meshes (on
+    /// the geometric normal's side), else the geometric normal. Terms shade with it.
+    pub shading: Vec<Vec3>,
+    /// A bound on the hit point's distance from the true surface (world units, along `normal`).
+    pub error: Vec<f32>,
+    /// Whether the ray arrived from outside (`normal · dir < 0`, geometric normal).
     pub front: Vec<bool>,
     /// Object index in the prepared scene, or [`NO_HIT`].
     pub object: Vec<u32>,
@@ -100,15 +106,18 @@ impl Hits {
             local: vec![Vec3::ZERO; n],
             uv: vec![glam::Vec2::ZERO; n],
             normal: vec![Vec3::ZERO; n],
+            shading: vec![Vec3::ZERO; n],
+            error: vec![0.0; n],
             front: vec![true; n],
             object: vec![NO_HIT; n],
         }
     }
 
-    /// The normal facing the incoming ray (the outward normal flipped on a back-face hit).
+    /// The shading normal facing the incoming ray (the outward one turned round on a back-face
+    /// hit).
     #[inline]
     pub fn facing_normal(&self, lane: usize) -> Vec3 {
-        if self.front[lane] { self.normal[lane] } else { -self.normal[lane] }
+        if self.front[lane] { self.shading[lane] } else { -self.shading[lane] }
     }
 }
 

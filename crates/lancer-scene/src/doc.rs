@@ -386,7 +386,7 @@ impl<'de> Deserialize<'de> for MaterialRef {
     }
 }
 
-/// `scale = 2` or `scale = [sx, sy, sz]`; no factor may be zero.
+/// `scale = 2` or `scale = [sx, sy, sz]`; every factor's magnitude in [1e-6, 1e6].
 pub struct Scale(pub [f32; 3]);
 
 struct ScaleVisitor;
@@ -394,7 +394,9 @@ struct ScaleVisitor;
 impl ScaleVisitor {
     fn check<E: de::Error>(s: [f32; 3]) -> Result<Scale, E> {
         if s.iter().any(|x| x.abs() < 1e-6) {
-            Err(E::custom("a scale factor of zero flattens the object; use a non-zero scale"))
+            Err(E::custom("a scale factor of zero flattens the object; use a factor of at least 1e-6 in size"))
+        } else if s.iter().any(|x| x.abs() > 1e6) {
+            Err(E::custom("a scale factor over 1e6 is out of range; use a factor of at most 1e6 in size"))
         } else {
             Ok(Scale(s))
         }

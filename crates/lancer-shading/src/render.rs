@@ -107,7 +107,7 @@ fn render_tile(
     let pixels = (tile.w * tile.h) as usize;
     let background_layer = pipeline.terms.len();
     let mut accum = vec![vec![Vec3::ZERO; pixels]; background_layer + 1];
-    let shadow_ctx = ShadowContext::new(ctx.geometry, ctx.materials, ctx.textures);
+    let shadow_ctx = ShadowContext::new(ctx);
     let mut world = hecs::World::new();
     let mut stats = RenderStats::default();
 
@@ -182,29 +182,19 @@ fn split_off(r: &mut Rays, at: usize) -> Rays {
     }
 }
 
-/// Closest hit of every ray.
+/// Closest hit of every ray, with everything terms need about the surface there.
 fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
     for (rays, hits) in world.query_mut::<(&Rays, &mut Hits)>() {
         for lane in 0..rays.len() {
             let from = Origin { point: rays.origin[lane], skip: rays.skip[lane] };
             if let Some(h) = ctx.geometry.closest_hit(from, rays.dir[lane], 0.0, f32::INFINITY) {
                 hits.t[lane] = h.t;
-                let point = rays.origin[lane] + h.t * rays.dir[lane];
-                hits.point[lane] = point;
-                let object = &ctx.geometry.objects[h.object as usize];
-                hits.local[lane] = object.object_from_world.transform_point3(point);
-                let textured =
-                    matches!(ctx.materials[object.material as usize].pattern, lancer_core::Pattern::Image { .. });
-                if let (lancer_shapes::Shape::Mesh(mesh), true) = (&object.shape, textured) {
-                    // Texture coordinates: the same triangle again, in a sliver of t around the hit.
-                    let (lo, ld) = (
-                        object.object_from_world.transform_point3(from.point),
-                        object.object_from_world.transform_vector3(rays.dir[lane]),
-                    );
-                    let slack = 1e-4 * h.t.max(1.0);
-                    hits.uv[lane] = mesh.intersect(lo, ld, h.t - slack, h.t + slack).map_or(glam::Vec2::ZERO, |m| m.uv);
-                }
+                hits.point[lane] = h.point;
+                hits.local[lane] = h.local;
+                hits.uv[lane] = h.uv;
                 hits.normal[lane] = h.normal;
+                hits.shading[lane] = h.shading;
+                hits.error[lane] = h.error;
                 hits.front[lane] = h.front;
                 hits.object[lane] = h.object;
             }
@@ -212,8 +202,9 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
     }
 }
 
-/// For every hit and light: the direction to the light and the light arriving through the
-/// pipeline's shadow model. Lights behind the surface (`N·w <= 0`) send nothing.
+/// For every hit on which some term reads lights ([`crate::Term::reads_lights`]) and every
+/// light: the direction to the light and the light arriving through the pipeline's shadow
+/// model. Lights behind the surface (`N·w <= 0`) send nothing.
 fn visibility_system(
     world: &mut hecs::World,
     ctx: &ShadeContext<'_>,
@@ -226,18 +217,22 @@ fn visibility_system(
             if hits.object[lane] == NO_HIT {
                 continue;
             }
-            let (p, n) = (hits.point[lane], hits.facing_normal(lane));
+            let material = ctx.material(hits, lane);
+            if !pipeline.terms.iter().any(|t| t.term.reads_lights(material)) {
+                continue;
+            }
+            let hit = ctx.hit(hits, lane);
+            let n = hits.facing_normal(lane);
             for (k, light) in ctx.lights.iter().enumerate() {
                 let slot = lane * ctx.lights.len() + k;
-                let Some(w) = (light.at - p).try_normalize() else {
+                let Some(w) = (light.at - hit.point).try_normalize() else {
                     continue;
                 };
                 samples.w[slot] = w;
                 if n.dot(w) <= 0.0 {
                     continue;
                 }
-                let from = ctx.geometry.leave(hits.object[lane], p, n);
-                samples.incoming[slot] = light.radiance() * shadows.transmittance(shadow_ctx, from, light);
+                samples.incoming[slot] = light.radiance() * shadows.transmittance(shadow_ctx, &hit, light);
             }
         }
     }

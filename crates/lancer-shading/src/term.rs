@@ -3,7 +3,7 @@
 use glam::Vec3;
 use lancer_core::rays::{CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
 use lancer_core::{Light, Material, Texture};
-use lancer_shapes::{Geometry, Origin};
+use lancer_shapes::{Geometry, Hit, Origin};
 
 /// Read-only scene data every term may use.
 pub struct ShadeContext<'a> {
@@ -20,24 +20,47 @@ pub struct ShadeContext<'a> {
 }
 
 impl ShadeContext<'_> {
+    /// The material of object `object`.
+    #[inline]
+    pub fn material_of(&self, object: u32) -> &Material {
+        &self.materials[self.geometry.objects[object as usize].material as usize]
+    }
+
+    /// `Col_Ω` at a hit: the material's pattern evaluated at its object-space point (or its mesh
+    /// texture coordinates). The one colour lookup, for terms and shadow models alike.
+    #[inline]
+    pub fn color_at(&self, hit: &Hit) -> Vec3 {
+        let object = &self.geometry.objects[hit.object as usize];
+        crate::surface_color(&self.materials[object.material as usize], &object.shape, hit.local, hit.uv, self.textures)
+    }
+
     /// The material of the object hit in `lane` (which must have a hit).
     #[inline]
     pub fn material(&self, hits: &Hits, lane: usize) -> &Material {
-        let object = &self.geometry.objects[hits.object[lane] as usize];
-        &self.materials[object.material as usize]
+        self.material_of(hits.object[lane])
     }
 
-    /// `Col_Ω` at the hit of `lane`: the material's pattern evaluated there.
+    /// `Col_Ω` at the hit of `lane`.
     #[inline]
-    pub fn color(&self, hits: &Hits, lane: usize) -> glam::Vec3 {
-        let object = &self.geometry.objects[hits.object[lane] as usize];
-        crate::surface_color(
-            &self.materials[object.material as usize],
-            &object.shape,
-            hits.local[lane],
-            hits.uv[lane],
-            self.textures,
-        )
+    pub fn color(&self, hits: &Hits, lane: usize) -> Vec3 {
+        self.color_at(&self.hit(hits, lane))
+    }
+
+    /// The hit of `lane` (which must have one) as the geometry describes hits: what
+    /// [`Geometry::spawn`] and the refraction path take.
+    #[inline]
+    pub fn hit(&self, hits: &Hits, lane: usize) -> Hit {
+        Hit {
+            t: hits.t[lane],
+            object: hits.object[lane],
+            point: hits.point[lane],
+            local: hits.local[lane],
+            normal: hits.normal[lane],
+            shading: hits.shading[lane],
+            uv: hits.uv[lane],
+            error: hits.error[lane],
+            front: hits.front[lane],
+        }
     }
 }
 
@@ -95,7 +118,7 @@ impl TermOutput<'_> {
         self.rays.depth[lane] < self.max_depth
     }
 
-    /// Queues a child ray of `lane` from `origin` (see [`Geometry::leave`]) whose colour counts
+    /// Queues a child ray of `lane` from `origin` (see [`Geometry::spawn`]) whose colour counts
     /// `factor` times in the parent's. Does nothing past the depth limit or for a zero factor.
     #[inline]
     pub fn spawn(&mut self, lane: usize, origin: Origin, dir: Vec3, factor: Vec3) {
@@ -123,6 +146,16 @@ impl TermOutput<'_> {
 pub trait Term: Send + Sync {
     /// Adds this term's contribution for every lane of `chunk`.
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>);
+
+    /// Whether the term reads the light arriving at a surface of this material
+    /// ([`Chunk::lights`]). The light visibility system traces shadow rays only for hits on
+    /// which some term of the model reads them. The default, `true`, is always right; a term
+    /// that never looks at lights (ambient, mirror) or ignores a material (zero `diff`) says
+    /// `false` and saves the shadow rays.
+    fn reads_lights(&self, material: &Material) -> bool {
+        let _ = material;
+        true
+    }
 }
 
 /// The point and surface normal terms shade with: the normal faces the incoming ray.

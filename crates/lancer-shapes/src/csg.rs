@@ -66,6 +66,10 @@ pub struct Span {
     pub t1: f32,
     /// The outward normal there.
     pub n1: Vec3,
+    /// Which part of the shape the entry belongs to (a CSG tree's leaf node; 0 for a plain shape).
+    pub part0: u32,
+    /// Which part of the shape the exit belongs to.
+    pub part1: u32,
 }
 
 /// A CSG tree ready for queries: nodes with their inverse transforms precomputed.
@@ -85,11 +89,7 @@ impl Csg {
         for (i, n) in nodes.iter().enumerate() {
             inverse.push(match n {
                 CsgNode::Leaf { node_from_leaf, .. } => {
-                    let det = node_from_leaf.matrix3.determinant();
-                    if !det.is_finite() || det.abs() < 1e-12 {
-                        return None;
-                    }
-                    let leaf_from_node = node_from_leaf.inverse();
+                    let leaf_from_node = crate::invertible(node_from_leaf)?;
                     Some((leaf_from_node, leaf_from_node.matrix3.transpose()))
                 }
                 CsgNode::Op { a, b, .. } => {
@@ -139,7 +139,7 @@ impl Csg {
                 shape
                     .spans(lo, ld)
                     .into_iter()
-                    .map(|s| Span { t0: s.t0, n0: back(s.n0), t1: s.t1, n1: back(s.n1) })
+                    .map(|s| Span { t0: s.t0, n0: back(s.n0), t1: s.t1, n1: back(s.n1), part0: i, part1: i })
                     .collect()
             }
             CsgNode::Op { op, a, b } => {
@@ -150,6 +150,33 @@ impl Csg {
     }
 }
 
+impl Csg {
+    /// The surface at a crossing of the tree found on the ray `o + t d` (tree space): the leaf
+    /// that owns the boundary refines the point in its own space (see [`Shape::surface`]), and
+    /// the normal stays the tree's (turned round where a difference removed the leaf).
+    pub fn surface(&self, o: Vec3, d: Vec3, hit: &crate::ShapeHit) -> crate::LocalSurface {
+        let leaf = hit.part as usize;
+        let (CsgNode::Leaf { shape, node_from_leaf }, Some((leaf_from_node, _))) =
+            (&self.nodes[leaf], self.inverse[leaf])
+        else {
+            unreachable!("CSG crossings name their leaf");
+        };
+        let (lo, ld) = (leaf_from_node.transform_point3(o), leaf_from_node.transform_vector3(d));
+        // The leaf's own crossing nearest to `t` (the same computation that produced it).
+        let own = shape
+            .spans(lo, ld)
+            .iter()
+            .flat_map(|s| [(s.t0, s.n0), (s.t1, s.n1)])
+            .filter(|(t, _)| t.is_finite())
+            .min_by(|a, b| (a.0 - hit.t).abs().total_cmp(&(b.0 - hit.t).abs()))
+            .map_or(*hit, |(t, normal)| crate::ShapeHit { t, normal, part: 0, bary: glam::Vec2::ZERO });
+        let local = shape.surface(lo, ld, &own);
+        let normal = hit.normal.normalize_or(Vec3::Y);
+        let (point, error) = crate::geometry::place(node_from_leaf, local.point, local.error, normal);
+        crate::LocalSurface { point, error, normal, shading: normal, uv: glam::Vec2::ZERO }
+    }
+}
+
 /// Combines two sorted, disjoint span lists.
 pub fn combine(op: CsgOp, a: &[Span], b: &[Span]) -> Vec<Span> {
     // Sweep the boundaries in order, tracking whether we are inside a, inside b, and the result.
@@ -157,14 +184,15 @@ pub fn combine(op: CsgOp, a: &[Span], b: &[Span]) -> Vec<Span> {
     struct Event {
         t: f32,
         n: Vec3,
+        part: u32,
         of_a: bool,
         entering: bool,
     }
     let mut events: Vec<Event> = Vec::with_capacity(2 * (a.len() + b.len()));
     for (list, of_a) in [(a, true), (b, false)] {
         for s in list {
-            events.push(Event { t: s.t0, n: s.n0, of_a, entering: true });
-            events.push(Event { t: s.t1, n: s.n1, of_a, entering: false });
+            events.push(Event { t: s.t0, n: s.n0, part: s.part0, of_a, entering: true });
+            events.push(Event { t: s.t1, n: s.n1, part: s.part1, of_a, entering: false });
         }
     }
     events.sort_by(|x, y| x.t.total_cmp(&y.t));
@@ -175,7 +203,7 @@ pub fn combine(op: CsgOp, a: &[Span], b: &[Span]) -> Vec<Span> {
     };
     let (mut ia, mut ib) = (false, false);
     let mut out = Vec::new();
-    let mut open: Option<(f32, Vec3)> = None;
+    let mut open: Option<(f32, Vec3, u32)> = None;
     for e in events {
         if e.of_a {
             ia = e.entering
@@ -186,10 +214,10 @@ pub fn combine(op: CsgOp, a: &[Span], b: &[Span]) -> Vec<Span> {
         // A boundary of b is a boundary of the difference with its normal turned round.
         let n = if op == CsgOp::Difference && !e.of_a { -e.n } else { e.n };
         match (open, now) {
-            (None, true) => open = Some((e.t, n)),
-            (Some((t0, n0)), false) => {
+            (None, true) => open = Some((e.t, n, e.part)),
+            (Some((t0, n0, part0)), false) => {
                 if e.t > t0 {
-                    out.push(Span { t0, n0, t1: e.t, n1: n });
+                    out.push(Span { t0, n0, t1: e.t, n1: n, part0, part1: e.part });
                 }
                 open = None;
             }
@@ -204,7 +232,7 @@ mod tests {
     use super::*;
 
     fn span(t0: f32, t1: f32) -> Span {
-        Span { t0, n0: -Vec3::X, t1, n1: Vec3::X }
+        Span { t0, n0: -Vec3::X, t1, n1: Vec3::X, part0: 0, part1: 0 }
     }
 
     #[test]

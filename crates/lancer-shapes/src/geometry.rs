@@ -1,9 +1,37 @@
 //! The prepared scene geometry: objects as flat arrays, a BVH over the bounded ones, a list of
-//! the unbounded ones, closest-hit and exit queries in world space, and robust ray offsets.
+//! the unbounded ones, closest-hit and exit queries in world space, and the one policy for where
+//! a secondary ray starts ([`Geometry::spawn`]).
 
-use glam::{Affine3A, Mat3A, Vec3};
+use glam::{Affine3A, Mat3A, Vec2, Vec3};
 
-use crate::{Aabb, Bvh, Shape};
+use crate::{Aabb, Bvh, LocalSurface, Shape, ShapeHit};
+
+/// The inverse of `m` if `m` is a usable placement: finite, with a non-zero determinant and a
+/// finite inverse. The one test for every transform (objects and CSG operands), so the scene
+/// loader can refuse what the geometry would.
+pub fn invertible(m: &Affine3A) -> Option<Affine3A> {
+    let det = m.matrix3.determinant();
+    if !m.is_finite() || !det.is_finite() || det == 0.0 {
+        return None;
+    }
+    let inv = m.inverse();
+    inv.is_finite().then_some(inv)
+}
+
+/// `γ₃`: the relative error bound of a dot product of three f32 terms plus a translation.
+const GAMMA3: f32 = 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// Maps an object-space point, `error` away from the surface at most, to world space by `m`:
+/// the world point and a bound on its distance from the surface along the unit world `normal`
+/// (pbrt's error bounds: the transform's own rounding, γ₃ (|M| |p| + |T|), plus the incoming
+/// error stretched by the transform).
+pub(crate) fn place(m: &Affine3A, point: Vec3, error: f32, normal: Vec3) -> (Vec3, f32) {
+    let world = m.transform_point3(point);
+    let abs = Mat3A::from_cols(m.matrix3.x_axis.abs(), m.matrix3.y_axis.abs(), m.matrix3.z_axis.abs());
+    let rounding = GAMMA3 * (abs * point.abs() + Vec3::from(m.translation.abs()));
+    let carried = abs * Vec3::splat(error);
+    (world, normal.abs().dot(rounding + carried))
+}
 
 /// One placed shape.
 #[derive(Clone, Debug)]
@@ -21,13 +49,10 @@ pub struct Object {
 }
 
 impl Object {
-    /// Places `shape` with `world_from_object`; `None` if the transform is singular.
+    /// Places `shape` with `world_from_object`; `None` if the transform is not
+    /// [`invertible`].
     pub fn new(shape: Shape, world_from_object: Affine3A, material: u32) -> Option<Object> {
-        let det = world_from_object.matrix3.determinant();
-        if !det.is_finite() || det.abs() < 1e-12 {
-            return None;
-        }
-        let object_from_world = world_from_object.inverse();
+        let object_from_world = invertible(&world_from_object)?;
         Some(Object {
             shape,
             world_from_object,
@@ -47,11 +72,11 @@ impl Object {
         (self.object_from_world.transform_point3(o), self.object_from_world.transform_vector3(d))
     }
 
-    /// First hit of the world ray `o + t d` with `tmin < t < tmax`.
+    /// First crossing of the world ray `o + t d` with `tmin < t < tmax` (object-space details).
     #[inline]
-    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<ShapeHit> {
         let (oo, od) = self.to_object(o, d);
-        self.shape.intersect(oo, od, tmin, tmax).map(|(t, n)| (t, self.world_normal(n)))
+        self.shape.intersect(oo, od, tmin, tmax)
     }
 
     /// Whether the object lies on the world ray within `0 < t < tmax` (any hit will do).
@@ -61,11 +86,24 @@ impl Object {
         self.shape.occludes(oo, od, tmax)
     }
 
-    /// Where the world ray `o + t d`, starting inside, leaves this object.
-    #[inline]
-    pub fn exit(&self, o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
+    /// The world-space hit record of the crossing `c` of the world ray `o + t d`.
+    pub fn hit(&self, index: u32, o: Vec3, d: Vec3, c: &ShapeHit) -> Hit {
         let (oo, od) = self.to_object(o, d);
-        self.shape.exit(oo, od).map(|(t, n)| (t, self.world_normal(n)))
+        let local: LocalSurface = self.shape.surface(oo, od, c);
+        let normal = self.world_normal(local.normal);
+        let shading = if local.shading == local.normal { normal } else { self.world_normal(local.shading) };
+        let (point, error) = place(&self.world_from_object, local.point, local.error, normal);
+        Hit {
+            t: c.t,
+            object: index,
+            point,
+            local: local.point,
+            normal,
+            shading,
+            uv: local.uv,
+            error,
+            front: normal.dot(d) < 0.0,
+        }
     }
 
     /// World-space bounds; `None` for unbounded shapes.
@@ -74,16 +112,26 @@ impl Object {
     }
 }
 
-/// A ray–surface hit in world space.
+/// A ray–surface hit in world space: everything the shading needs, found once per ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     /// Distance along the ray (in units of the ray's direction length).
     pub t: f32,
     /// Index of the object hit.
     pub object: u32,
-    /// Unit outward normal.
+    /// The hit point on the surface.
+    pub point: Vec3,
+    /// The same point in the object's own space (for patterns).
+    pub local: Vec3,
+    /// Unit outward geometric normal: decides front and back, and where rays leave.
     pub normal: Vec3,
-    /// Whether the ray arrived from outside.
+    /// Unit outward shading normal (interpolated on smooth meshes; else the geometric one).
+    pub shading: Vec3,
+    /// Texture coordinates interpolated from a mesh's vertices (zero for other shapes).
+    pub uv: Vec2,
+    /// A bound on the point's distance from the true surface along `normal`.
+    pub error: f32,
+    /// Whether the ray arrived from outside (geometric normal against the ray).
     pub front: bool,
 }
 
@@ -100,7 +148,7 @@ pub struct Geometry {
 /// `Origin::skip` when a ray may hit every object.
 pub const NO_SKIP: u32 = u32::MAX;
 
-/// Where a secondary ray starts, and the object it must ignore (the one it leaves, when convex).
+/// Where a ray starts, and the object it must ignore (see [`Geometry::spawn`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Origin {
     /// The start point.
@@ -116,16 +164,13 @@ impl Origin {
     }
 }
 
-/// How far a secondary ray's origin moves off the surface: relative to the point's magnitude so
-/// that it stays above f32 rounding of the hit point wherever the object is.
-const OFFSET_REL: f32 = 1e-4;
+/// How many times the hit point's error bound a secondary ray's origin moves off the surface:
+/// the bound covers the point; the margin covers the rounding of the offset itself and of the
+/// next intersection test's transform into object space.
+const OFFSET_MARGIN: f32 = 16.0;
 
-/// Moves `p` off a surface along the unit normal `n`, to the side `n` points to, by a distance
-/// that scales with `|p|` (self-intersection acne otherwise).
-#[inline]
-pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
-    p + n * (OFFSET_REL * p.abs().max_element().max(1.0))
-}
+/// The smallest offset, for a point whose error bound is zero (at the origin of a plane).
+const OFFSET_FLOOR: f32 = 1e-30;
 
 impl Geometry {
     /// Builds the BVH over the bounded objects.
@@ -144,29 +189,45 @@ impl Geometry {
         Geometry { bvh: Bvh::build(&bounds), objects, bounded, unbounded }
     }
 
-    /// Where a ray leaving `object` at `p`, towards the side the unit normal `n` points to, starts.
+    /// Where a secondary ray leaving the surface at `at` in direction `dir` starts, and which
+    /// object it ignores. The one self-intersection policy; every term and shadow model spawns
+    /// its rays here.
     ///
-    /// A convex object cannot be met again, so the ray ignores it and starts a hair *behind* the
-    /// surface: an object touching it there (a glass cube resting on a floor) is still found,
-    /// which a start in front of the surface would step over. A non-convex object is not
-    /// ignored; the ray starts a hair in front of the surface instead.
+    /// - A ray that cannot meet the surface it leaves again ignores that object: one leaving a
+    ///   convex solid outwards, or leaving a flat shape (plane, disk) to either side. It starts a
+    ///   hair *behind* the surface, so an object touching it there (a glass cube resting on a
+    ///   floor) is still found.
+    /// - Any other ray (into a convex solid, or off a torus, mesh or CSG solid) may meet the
+    ///   object again and ignores nothing: it starts a hair in front of the surface, on the side
+    ///   it goes to.
+    ///
+    /// "A hair" is the hit point's error bound times a margin: the point's own rounding, which
+    /// depends on where the point is, not on how far the ray that found it came from.
     #[inline]
-    pub fn leave(&self, object: u32, p: Vec3, n: Vec3) -> Origin {
-        if self.objects[object as usize].shape.is_convex() {
-            Origin { point: offset_origin(p, -n), skip: object }
+    pub fn spawn(&self, at: &Hit, dir: Vec3) -> Origin {
+        let outward = dir.dot(at.normal) > 0.0;
+        let side = if outward { at.normal } else { -at.normal };
+        let offset = (at.error * OFFSET_MARGIN).max(OFFSET_FLOOR) + at.point.abs().max_element() * f32::EPSILON;
+        let shape = &self.objects[at.object as usize].shape;
+        if shape.is_flat() || (outward && shape.is_convex()) {
+            Origin { point: at.point - side * offset, skip: at.object }
         } else {
-            Origin { point: offset_origin(p, n), skip: NO_SKIP }
+            Origin { point: at.point + side * offset, skip: NO_SKIP }
         }
     }
 
-    fn hit_with(&self, i: u32, o: Vec3, d: Vec3, tmin: f32, tmax: f32, best: &mut Option<Hit>) -> f32 {
+    fn test(&self, i: u32, o: Vec3, d: Vec3, tmin: f32, tmax: f32, best: &mut Option<(u32, ShapeHit)>) -> f32 {
         match self.objects[i as usize].intersect(o, d, tmin, tmax) {
-            Some((t, normal)) => {
-                *best = Some(Hit { t, object: i, normal, front: normal.dot(d) < 0.0 });
-                t
+            Some(c) => {
+                *best = Some((i, c));
+                c.t
             }
             None => tmax,
         }
+    }
+
+    fn finish(&self, o: Vec3, d: Vec3, best: Option<(u32, ShapeHit)>) -> Option<Hit> {
+        best.map(|(i, c)| self.objects[i as usize].hit(i, o, d, &c))
     }
 
     /// The closest hit of `o + t d` with `tmin < t < tmax`. The BVH build and traversal order are
@@ -177,14 +238,14 @@ impl Geometry {
         let mut tmax = tmax;
         for &i in &self.unbounded {
             if i != skip {
-                tmax = self.hit_with(i, o, d, tmin, tmax, &mut best);
+                tmax = self.test(i, o, d, tmin, tmax, &mut best);
             }
         }
         self.bvh.traverse(o, d, tmax, |item, tmax| {
             let i = self.bounded[item as usize];
-            if i == skip { tmax } else { self.hit_with(i, o, d, tmin, tmax, &mut best) }
+            if i == skip { tmax } else { self.test(i, o, d, tmin, tmax, &mut best) }
         });
-        best
+        self.finish(o, d, best)
     }
 
     /// Whether any object (but `from.skip`) lies on the ray within `0 < t < tmax`: a shadow ray
@@ -211,14 +272,29 @@ impl Geometry {
         let mut best = None;
         let mut tmax = tmax;
         for i in (0..self.objects.len() as u32).filter(|&i| i != from.skip) {
-            tmax = self.hit_with(i, from.point, d, tmin, tmax, &mut best);
+            tmax = self.test(i, from.point, d, tmin, tmax, &mut best);
         }
-        best
+        self.finish(from.point, d, best)
     }
 
-    /// Where the ray `o + t d`, starting inside object `object`, leaves it.
-    pub fn exit(&self, object: u32, o: Vec3, d: Vec3) -> Option<Hit> {
-        self.objects[object as usize].exit(o, d).map(|(t, normal)| Hit { t, object, normal, front: false })
+    /// Where a ray that goes into the object at `at` in direction `dir` leaves it again (meeting
+    /// nothing else on the way, as the handout's refraction path does). `None` for a shape it
+    /// never leaves (a plane's half-space) or that has no inside (a disk, an open mesh).
+    pub fn exit(&self, at: &Hit, dir: Vec3) -> Option<Hit> {
+        let object = &self.objects[at.object as usize];
+        let from = self.spawn(at, dir);
+        let (oo, od) = object.to_object(from.point, dir);
+        let c = object.shape.exit(oo, od)?;
+        Some(object.hit(at.object, from.point, dir, &c))
+    }
+
+    /// Where a straight ray that meets the surface at `at` is past the object: the exit of a
+    /// closed object it enters there; the surface itself for one it leaves, or for a surface
+    /// with no inside (a disk, an open mesh), which it crosses there. `None` when it never gets
+    /// out (a plane's half-space).
+    pub fn past(&self, at: &Hit, dir: Vec3) -> Option<Hit> {
+        let shape = &self.objects[at.object as usize].shape;
+        if dir.dot(at.normal) < 0.0 && shape.is_closed() { self.exit(at, dir) } else { Some(*at) }
     }
 }
 
@@ -284,8 +360,8 @@ mod tests {
         let g = Geometry::new(vec![Object::new(Shape::Sphere, m, 0).unwrap()]);
         let h = g.closest_hit(Origin::free(Vec3::new(-10.0, 0.0, 5.0)), Vec3::X, 0.0, f32::INFINITY).unwrap();
         assert!((h.t - 8.0).abs() < 1e-5 && (h.normal + Vec3::X).length() < 1e-6 && h.front);
-        let e = g.exit(0, Vec3::new(-1.9, 0.0, 5.0), Vec3::X).unwrap();
-        assert!((e.t - 3.9).abs() < 1e-5 && (e.normal - Vec3::X).length() < 1e-6);
+        let e = g.exit(&h, Vec3::X).unwrap();
+        assert!((e.point - Vec3::new(2.0, 0.0, 5.0)).length() < 1e-5 && (e.normal - Vec3::X).length() < 1e-6);
     }
 
     #[test]
@@ -296,16 +372,13 @@ mod tests {
         let g = Geometry::new(vec![floor, cube]);
         let down = Vec3::new(0.3, -1.0, 0.2).normalize();
         let p = Vec3::new(0.1, 0.0, -0.4);
-        let from = g.leave(1, p, -Vec3::Y);
+        let (o, d) = (p + Vec3::Y * 0.5, -Vec3::Y);
+        let c = g.objects[1].intersect(o, d, 0.0, f32::INFINITY).unwrap();
+        let bottom = g.objects[1].hit(1, o, d, &c);
+        assert!(!bottom.front && bottom.point.y.abs() < 1e-6);
+        let from = g.spawn(&bottom, down);
         let hit = g.closest_hit(from, down, 0.0, f32::INFINITY).expect("the floor is right there");
         assert_eq!(hit.object, 0);
         assert!(hit.t < 1e-3);
-    }
-
-    #[test]
-    fn offset_moves_off_the_surface_on_the_normal_side() {
-        let p = Vec3::new(100.0, 0.0, 0.0);
-        let q = offset_origin(p, Vec3::X);
-        assert!(q.x > p.x && (q.x - p.x) < 0.1);
     }
 }

@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use glam::{Vec2, Vec3};
 
-use crate::{Aabb, Bvh};
+use crate::{Aabb, Bvh, LocalSurface, ShapeHit};
 
 /// A triangle mesh in object space. Triangles wind counter-clockwise seen from outside.
 #[derive(Clone, Debug)]
@@ -58,18 +58,6 @@ pub enum MeshError {
         /// How many vertices there are.
         vertices: usize,
     },
-}
-
-/// Everything a hit on a mesh tells.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MeshHit {
-    /// Distance along the ray.
-    pub t: f32,
-    /// Outward unit normal: interpolated from the vertex normals when the mesh has them (turned
-    /// to the geometric normal's side), else the triangle's own.
-    pub normal: Vec3,
-    /// Texture coordinates (zero when the mesh has none).
-    pub uv: Vec2,
 }
 
 /// A ray prepared for the watertight test: the axis it runs most along becomes z.
@@ -162,9 +150,10 @@ impl Mesh {
             })
             .collect();
         let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-        // Closed (watertight): every edge is shared by exactly two triangles. Vertices at the same
-        // position count as one, so a texture seam (the same point with two sets of texture
-        // coordinates) does not open the mesh.
+        // Closed (watertight): every edge is used once in each direction by two triangles, so
+        // neighbours agree on which side is outside. Vertices at the same position count as one,
+        // so a texture seam (the same point with two sets of texture coordinates) does not open
+        // the mesh.
         let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
         let canonical: Vec<u32> = positions
             .iter()
@@ -175,10 +164,27 @@ impl Mesh {
         for t in &triangles {
             let t = t.map(|i| canonical[i as usize]);
             for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-                *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                *edges.entry((a, b)).or_insert(0) += 1;
             }
         }
-        let closed = edges.values().all(|&c| c == 2);
+        let closed = edges.iter().all(|(&(a, b), &c)| c == 1 && edges.get(&(b, a)) == Some(&1));
+        // A closed mesh wound clockwise seen from outside encloses a negative volume: turn every
+        // triangle round so its normals point out.
+        let mut triangles = triangles;
+        if closed {
+            let volume: f64 = triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
+                    a.dot(b.cross(c))
+                })
+                .sum();
+            if volume < 0.0 {
+                for t in &mut triangles {
+                    t.swap(1, 2);
+                }
+            }
+        }
         Ok(Mesh { bvh: Bvh::build(&boxes), positions, normals, uvs, triangles, bounds, closed })
     }
 
@@ -202,8 +208,9 @@ impl Mesh {
         !self.normals.is_empty()
     }
 
-    /// The first triangle the ray `o + t d` meets with `tmin < t < tmax`.
-    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<MeshHit> {
+    /// The first triangle the ray `o + t d` meets with `tmin < t < tmax`: the crossing names the
+    /// triangle and carries its barycentric weights (see [`Mesh::surface`]).
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<ShapeHit> {
         let ray = Sheared::new(o, d);
         let mut best: Option<(u32, f32, Vec3)> = None;
         self.bvh.traverse_from(o, d, tmin, tmax, |i, tmax| {
@@ -216,24 +223,38 @@ impl Mesh {
                 None => tmax,
             }
         });
-        let (i, t, w) = best?;
-        let idx = self.triangles[i as usize];
+        let (part, t, w) = best?;
+        Some(ShapeHit { t, normal: Vec3::ZERO, part, bary: Vec2::new(w.y, w.z) })
+    }
+
+    /// The surface of triangle `triangle` at barycentric weights `bary` (of its second and third
+    /// corners): the point interpolated from the corners, so it lies in the triangle's plane
+    /// whatever the ray's length; the geometric normal; the shading normal interpolated from the
+    /// vertex normals when the mesh has them (turned to the geometric normal's side); texture
+    /// coordinates.
+    pub fn surface(&self, triangle: u32, bary: Vec2) -> LocalSurface {
+        let idx = self.triangles[triangle as usize];
+        let w = [1.0 - bary.x - bary.y, bary.x, bary.y];
         let [a, b, c] = idx.map(|v| self.positions[v as usize]);
-        let geometric = (b - a).cross(c - a).normalize_or(Vec3::Y);
-        let normal = if self.normals.is_empty() {
-            geometric
+        let point = w[0] * a + w[1] * b + w[2] * c;
+        // Each coordinate is a sum of three products: γ₅ of the sum of their magnitudes.
+        let sum = (w[0] * a).abs() + (w[1] * b).abs() + (w[2] * c).abs();
+        let error = 5.0 * f32::EPSILON * sum.max_element();
+        let normal = (b - a).cross(c - a).normalize_or(Vec3::Y);
+        let shading = if self.normals.is_empty() {
+            normal
         } else {
             let n = idx.map(|v| self.normals[v as usize]);
-            let s = (w.x * n[0] + w.y * n[1] + w.z * n[2]).normalize_or(geometric);
-            if s.dot(geometric) < 0.0 { -s } else { s }
+            let s = (w[0] * n[0] + w[1] * n[1] + w[2] * n[2]).normalize_or(normal);
+            if s.dot(normal) < 0.0 { -s } else { s }
         };
         let uv = if self.uvs.is_empty() {
             Vec2::ZERO
         } else {
             let u = idx.map(|v| self.uvs[v as usize]);
-            w.x * u[0] + w.y * u[1] + w.z * u[2]
+            w[0] * u[0] + w[1] * u[1] + w[2] * u[2]
         };
-        Some(MeshHit { t, normal, uv })
+        LocalSurface { point, error, normal, shading, uv }
     }
 
     /// Whether any triangle lies on the ray `o + t d` with `0 < t < tmax` (stops at the first).
@@ -283,7 +304,9 @@ mod tests {
         assert!(m.is_closed());
         let h = m.intersect(Vec3::new(0.1, 0.1, -5.0), Vec3::Z, 0.0, f32::INFINITY).unwrap();
         assert!((h.t - 4.2).abs() < 1e-5, "{}", h.t);
-        assert!(h.normal.z < 0.0 && (h.normal - Vec3::new(1.0, 1.0, -1.0).normalize()).length() < 1e-5);
+        let s = m.surface(h.part, h.bary);
+        assert!((s.point - Vec3::new(0.1, 0.1, -0.8)).length() < 1e-6, "{}", s.point);
+        assert!((s.normal - Vec3::new(1.0, 1.0, -1.0).normalize()).length() < 1e-5);
         // Through a vertex and along shared edges: never slips through.
         for o in [Vec3::new(0.0, 0.0, -5.0), Vec3::new(0.3, 0.0, -5.0), Vec3::new(0.0, -0.4, -5.0)] {
             assert!(m.intersect(o, Vec3::Z, 0.0, f32::INFINITY).is_some(), "{o}");
@@ -301,5 +324,25 @@ mod tests {
         let line = vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
         assert_eq!(Mesh::new(line, vec![], vec![], vec![[0, 1, 2]]).unwrap_err(), MeshError::Degenerate(0));
         assert!(!Mesh::new(p, vec![], vec![], vec![[0, 1, 2]]).unwrap().is_closed(), "one triangle is open");
+    }
+
+    #[test]
+    fn regression_a_mesh_whose_neighbours_disagree_on_winding_is_not_closed() {
+        // Every edge of this octahedron is shared by two triangles, but one triangle is turned
+        // round: its edges run the same way as its neighbours', so inside and outside are not
+        // defined (before the fix, only the edge counts were checked).
+        let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+        let t = vec![[0, 4, 2], [4, 2, 1], [1, 2, 5], [5, 2, 0], [4, 3, 0], [1, 3, 4], [5, 3, 1], [0, 3, 5]];
+        assert!(!Mesh::new(p, Vec::new(), Vec::new(), t).unwrap().is_closed());
+    }
+
+    #[test]
+    fn a_closed_mesh_wound_inside_out_gets_outward_normals() {
+        let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+        let t = vec![[0, 4, 2], [4, 1, 2], [1, 5, 2], [5, 0, 2], [4, 0, 3], [1, 4, 3], [5, 1, 3], [0, 5, 3]];
+        let m = Mesh::new(p, Vec::new(), Vec::new(), t).unwrap();
+        assert!(m.is_closed());
+        let h = m.intersect(Vec3::new(0.1, 0.1, -5.0), Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        assert!(m.surface(h.part, h.bary).normal.z < 0.0, "the normal faces the ray coming from outside");
     }
 }

@@ -33,6 +33,47 @@ pub enum Shape {
 /// A crossing of the surface: distance along the ray and outward normal (object space).
 type Crossing = (f32, Vec3);
 
+/// A surface crossing found by a shape query, in object space: what the closest-hit search
+/// compares, and what [`Shape::surface`] needs to describe the surface there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShapeHit {
+    /// Distance along the ray (in units of the ray's direction length).
+    pub t: f32,
+    /// Outward normal as the query found it (unit; zero for a mesh, whose normal comes from
+    /// [`Shape::surface`]).
+    pub normal: Vec3,
+    /// Which part of the shape: the triangle of a mesh, the leaf node of a CSG tree; 0 otherwise.
+    pub part: u32,
+    /// Barycentric weights of the triangle's second and third corners (meshes only).
+    pub bary: glam::Vec2,
+}
+
+impl ShapeHit {
+    #[inline]
+    fn of((t, normal): Crossing) -> ShapeHit {
+        ShapeHit { t, normal, part: 0, bary: glam::Vec2::ZERO }
+    }
+}
+
+/// The surface at a hit, in object space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalSurface {
+    /// The hit point, moved onto the surface (see [`Shape::surface`]).
+    pub point: Vec3,
+    /// A bound on the distance from `point` to the true surface.
+    pub error: f32,
+    /// Unit outward geometric normal.
+    pub normal: Vec3,
+    /// Unit outward shading normal: the geometric one, except on smooth meshes, where it is
+    /// interpolated from the vertex normals (and turned to the geometric normal's side).
+    pub shading: Vec3,
+    /// Texture coordinates interpolated from a mesh's vertices (zero for other shapes).
+    pub uv: glam::Vec2,
+}
+
+/// Unit roundoff of f32.
+const EPS: f32 = f32::EPSILON * 0.5;
+
 impl Shape {
     /// Every shape's name as scene files spell it, in documentation order.
     pub const NAMES: &'static [&'static str] =
@@ -72,6 +113,12 @@ impl Shape {
     /// meets it again, so secondary rays may ignore it.
     pub fn is_convex(&self) -> bool {
         !matches!(self, Shape::Torus { .. } | Shape::Csg(_) | Shape::Mesh(_))
+    }
+
+    /// Whether the surface is flat (a plane, a disk): a ray leaving it to either side never
+    /// meets it again.
+    pub fn is_flat(&self) -> bool {
+        matches!(self, Shape::Plane | Shape::Disk)
     }
 
     /// Whether the shape encloses a volume, so a ray inside it has an exit point.
@@ -140,7 +187,7 @@ impl Shape {
     /// The parts of the line `o + t d` inside the shape, sorted and disjoint, with outward
     /// normals at their ends (infinite ends for a plane's half-space). None for a disk.
     pub fn spans(&self, o: Vec3, d: Vec3) -> Vec<crate::Span> {
-        let one = |((t0, n0), (t1, n1)): (Crossing, Crossing)| vec![crate::Span { t0, n0, t1, n1 }];
+        let one = |((t0, n0), (t1, n1)): (Crossing, Crossing)| vec![crate::Span { t0, n0, t1, n1, part0: 0, part1: 0 }];
         match self {
             Shape::Plane => {
                 if d.y == 0.0 {
@@ -157,7 +204,10 @@ impl Shape {
             Shape::Disk | Shape::Mesh(_) => Vec::new(),
             Shape::Torus { minor } => {
                 let roots = crate::torus::roots(*minor, o, d);
-                roots.chunks_exact(2).map(|p| crate::Span { t0: p[0].0, n0: p[0].1, t1: p[1].0, n1: p[1].1 }).collect()
+                roots
+                    .chunks_exact(2)
+                    .map(|p| crate::Span { t0: p[0].0, n0: p[0].1, t1: p[1].0, n1: p[1].1, part0: 0, part1: 0 })
+                    .collect()
             }
             Shape::Csg(csg) => csg.spans(o, d),
             _ => self.span(o, d).map(one).unwrap_or_default(),
@@ -181,10 +231,10 @@ impl Shape {
         }
     }
 
-    /// The first surface crossing of `o + t d` with `tmin < t < tmax`: `(t, outward unit normal)`.
-    /// `d` need not be unit length (object-space rays carry the transform's scale).
+    /// The first surface crossing of `o + t d` with `tmin < t < tmax`. `d` need not be unit length
+    /// (object-space rays carry the transform's scale).
     #[inline]
-    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<ShapeHit> {
         let ok = |t: f32| t > tmin && t < tmax;
         match self {
             Shape::Plane => {
@@ -192,7 +242,7 @@ impl Shape {
                     return None;
                 }
                 let t = -o.y / d.y;
-                ok(t).then_some((t, Vec3::Y))
+                ok(t).then_some(ShapeHit::of((t, Vec3::Y)))
             }
             Shape::Disk => {
                 if d.y == 0.0 {
@@ -200,17 +250,17 @@ impl Shape {
                 }
                 let t = -o.y / d.y;
                 let p = o + t * d;
-                (ok(t) && p.x * p.x + p.z * p.z <= 1.0).then_some((t, Vec3::Y))
+                (ok(t) && p.x * p.x + p.z * p.z <= 1.0).then_some(ShapeHit::of((t, Vec3::Y)))
             }
-            Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, tmin, tmax),
+            Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, tmin, tmax).map(ShapeHit::of),
             Shape::Csg(csg) => first_boundary(&csg.spans(o, d), tmin, tmax),
-            Shape::Mesh(m) => m.intersect(o, d, tmin, tmax).map(|h| (h.t, h.normal)),
+            Shape::Mesh(m) => m.intersect(o, d, tmin, tmax),
             _ => {
                 let ((t0, n0), (t1, n1)) = self.span(o, d)?;
                 if ok(t0) {
-                    Some((t0, n0))
+                    Some(ShapeHit::of((t0, n0)))
                 } else if ok(t1) {
-                    Some((t1, n1))
+                    Some(ShapeHit::of((t1, n1)))
                 } else {
                     None
                 }
@@ -227,40 +277,116 @@ impl Shape {
         }
     }
 
-    /// Where the line `o + t d`, starting inside the shape, leaves it: the next crossing `t > 0`,
-    /// with the outward normal there. `None` when the ray never leaves (a plane's half-space) or
-    /// the shape has no inside (a disk).
+    /// Where the line `o + t d`, starting inside the shape, leaves it: the next crossing `t > 0`.
+    /// `None` when the ray never leaves (a plane's half-space) or the shape has no inside (a
+    /// disk, an open mesh).
     #[inline]
-    pub fn exit(&self, o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
+    pub fn exit(&self, o: Vec3, d: Vec3) -> Option<ShapeHit> {
         match self {
             Shape::Plane => {
                 if d.y <= 0.0 {
                     return None;
                 }
                 let t = -o.y / d.y;
-                (t > 0.0).then_some((t, Vec3::Y))
+                (t > 0.0).then_some(ShapeHit::of((t, Vec3::Y)))
             }
             Shape::Disk => None,
-            Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, 0.0, f32::INFINITY),
+            Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, 0.0, f32::INFINITY).map(ShapeHit::of),
             Shape::Csg(csg) => first_boundary(&csg.spans(o, d), 0.0, f32::INFINITY),
             Shape::Mesh(m) => {
                 if !m.is_closed() {
                     return None;
                 }
-                m.intersect(o, d, 0.0, f32::INFINITY).map(|h| (h.t, h.normal))
+                m.intersect(o, d, 0.0, f32::INFINITY)
             }
             _ => {
                 let (_, (t1, n1)) = self.span(o, d)?;
-                (t1 > 0.0).then_some((t1, n1))
+                (t1 > 0.0).then_some(ShapeHit::of((t1, n1)))
             }
+        }
+    }
+
+    /// The surface where the ray `o + t d` made the crossing `hit`: the point recomputed in f64
+    /// and moved onto the surface (projected onto a sphere, cylinder or torus, snapped to a face
+    /// or cap plane, Newton-polished onto a cone, interpolated from a triangle's corners), with a
+    /// bound on its remaining distance from the surface. The point's error then no longer grows
+    /// with the ray's length or its origin's distance, only with the point's own magnitude, so
+    /// a secondary ray can start just off the surface wherever the scene is.
+    pub fn surface(&self, o: Vec3, d: Vec3, hit: &ShapeHit) -> LocalSurface {
+        let p = o.as_dvec3() + hit.t as f64 * d.as_dvec3();
+        let plain = |point: glam::DVec3, normal: Vec3| {
+            let point = point.as_vec3();
+            // Rounding to f32 (half an ulp per coordinate) plus the f64 work before it.
+            let error = 2.0 * EPS * point.abs().max_element();
+            LocalSurface { point, error, normal, shading: normal, uv: glam::Vec2::ZERO }
+        };
+        match self {
+            Shape::Sphere => {
+                let q = p.normalize_or(glam::DVec3::Y);
+                plain(q, q.as_vec3().normalize_or(Vec3::Y))
+            }
+            Shape::Plane | Shape::Disk => plain(glam::DVec3::new(p.x, 0.0, p.z), Vec3::Y),
+            Shape::Cube => {
+                let axis = hit.normal.abs().max_position();
+                let mut q = p.clamp(glam::DVec3::splat(-1.0), glam::DVec3::ONE);
+                q[axis] = hit.normal[axis].signum() as f64;
+                plain(q, hit.normal)
+            }
+            Shape::Cylinder => {
+                if hit.normal.y != 0.0 {
+                    let mut q = p;
+                    q.y = hit.normal.y.signum() as f64;
+                    return plain(q, hit.normal);
+                }
+                let rho = (p.x * p.x + p.z * p.z).sqrt();
+                if rho == 0.0 {
+                    return plain(p, hit.normal);
+                }
+                let q = glam::DVec3::new(p.x / rho, p.y.clamp(-1.0, 1.0), p.z / rho);
+                plain(q, Vec3::new(q.x as f32, 0.0, q.z as f32).normalize_or(Vec3::X))
+            }
+            Shape::Cone => {
+                if hit.normal == -Vec3::Y {
+                    return plain(glam::DVec3::new(p.x, -1.0, p.z), hit.normal);
+                }
+                // f = x² + z² − (1 − y)²/4 = 0; two Newton steps along the gradient.
+                let mut q = p;
+                for _ in 0..2 {
+                    let f = q.x * q.x + q.z * q.z - (1.0 - q.y) * (1.0 - q.y) / 4.0;
+                    let g = glam::DVec3::new(2.0 * q.x, (1.0 - q.y) / 2.0, 2.0 * q.z);
+                    let gg = g.length_squared();
+                    if gg == 0.0 {
+                        break;
+                    }
+                    q -= f / gg * g;
+                }
+                let n = Vec3::new(2.0 * q.x as f32, (1.0 - q.y as f32) / 2.0, 2.0 * q.z as f32);
+                plain(q, n.normalize_or(hit.normal))
+            }
+            &Shape::Torus { minor } => {
+                let rho = (p.x * p.x + p.z * p.z).sqrt();
+                if rho == 0.0 {
+                    return plain(p, hit.normal);
+                }
+                // The nearest point of the tube: from the centre circle towards `p`, at `minor`.
+                let c = glam::DVec3::new(p.x / rho, 0.0, p.z / rho);
+                let q = c + (p - c).normalize_or(glam::DVec3::Y) * minor as f64;
+                plain(q, crate::torus::normal(q.as_vec3()))
+            }
+            Shape::Mesh(m) => m.surface(hit.part, hit.bary),
+            Shape::Csg(csg) => csg.surface(o, d, hit),
         }
     }
 }
 
 /// The first span boundary with `tmin < t < tmax`.
 #[inline]
-fn first_boundary(spans: &[crate::Span], tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
-    spans.iter().flat_map(|s| [(s.t0, s.n0), (s.t1, s.n1)]).find(|&(t, _)| t > tmin && t < tmax)
+fn first_boundary(spans: &[crate::Span], tmin: f32, tmax: f32) -> Option<ShapeHit> {
+    spans
+        .iter()
+        .flat_map(|s| [(s.t0, s.n0, s.part0), (s.t1, s.n1, s.part1)])
+        .find(|&(t, ..)| t > tmin && t < tmax)
+        .map(|(t, normal, part)| ShapeHit { t, normal, part, bary: glam::Vec2::ZERO })
 }
 
 /// The intersection of two parameter intervals given by their entry and exit crossings.
@@ -338,7 +464,10 @@ fn cone_span(o: Vec3, d: Vec3) -> Option<(Crossing, Crossing)> {
         Vec3::new(2.0 * p.x, (1.0 - p.y) / 2.0, 2.0 * p.z).normalize_or(Vec3::Y)
     };
     // The quadric's inside as one or two intervals of t.
-    let pieces: [Option<(Crossing, Crossing)>; 2] = if a.abs() < 1e-12 {
+    // Parallel to a generator when `a` vanishes next to the terms it is the difference of (an
+    // absolute threshold would take every ray for parallel on a cone scaled up a millionfold,
+    // whose object-space directions are a millionth long).
+    let pieces: [Option<(Crossing, Crossing)>; 2] = if a64.abs() <= 1e-9 * dd.length_squared() {
         // Parallel to a generator: f is linear in t.
         if b == 0.0 {
             if c <= 0.0 { [Some(ALL), None] } else { return None }
@@ -431,19 +560,21 @@ mod tests {
 
     #[test]
     fn sphere_from_outside_and_exit_from_inside() {
-        let (t, n) = Shape::Sphere.intersect(Vec3::new(0.0, 0.0, -5.0), Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        let ShapeHit { t, normal: n, .. } =
+            Shape::Sphere.intersect(Vec3::new(0.0, 0.0, -5.0), Vec3::Z, 0.0, f32::INFINITY).unwrap();
         assert!((t - 4.0).abs() < 1e-6 && (n + Vec3::Z).length() < 1e-6);
-        let (t, n) = Shape::Sphere.exit(Vec3::new(0.0, 0.0, -0.999), Vec3::Z).unwrap();
+        let ShapeHit { t, normal: n, .. } = Shape::Sphere.exit(Vec3::new(0.0, 0.0, -0.999), Vec3::Z).unwrap();
         assert!((t - 1.999).abs() < 1e-5 && (n - Vec3::Z).length() < 1e-6);
         assert!(Shape::Sphere.intersect(Vec3::new(0.0, 2.0, -5.0), Vec3::Z, 0.0, f32::INFINITY).is_none());
     }
 
     #[test]
     fn cube_faces_have_outward_normals() {
-        let (t, n) = Shape::Cube.intersect(Vec3::new(0.3, 0.2, 4.0), -Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        let ShapeHit { t, normal: n, .. } =
+            Shape::Cube.intersect(Vec3::new(0.3, 0.2, 4.0), -Vec3::Z, 0.0, f32::INFINITY).unwrap();
         assert!((t - 3.0).abs() < 1e-6);
         assert_eq!(n, Vec3::Z);
-        let (t, n) = Shape::Cube.exit(Vec3::new(0.3, 0.2, 0.0), Vec3::X).unwrap();
+        let ShapeHit { t, normal: n, .. } = Shape::Cube.exit(Vec3::new(0.3, 0.2, 0.0), Vec3::X).unwrap();
         assert!((t - 0.7).abs() < 1e-6);
         assert_eq!(n, Vec3::X);
         // Parallel to a face, outside its slab: no hit.
@@ -452,9 +583,12 @@ mod tests {
 
     #[test]
     fn plane_is_one_sided_for_inside_and_outside() {
-        let (t, n) = Shape::Plane.intersect(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y, 0.0, f32::INFINITY).unwrap();
-        assert_eq!((t, n), (2.0, Vec3::Y));
-        assert_eq!(Shape::Plane.exit(Vec3::new(0.0, -1.0, 0.0), Vec3::Y), Some((1.0, Vec3::Y)));
+        let h = Shape::Plane.intersect(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y, 0.0, f32::INFINITY).unwrap();
+        assert_eq!((h.t, h.normal), (2.0, Vec3::Y));
+        assert_eq!(
+            Shape::Plane.exit(Vec3::new(0.0, -1.0, 0.0), Vec3::Y).map(|h| (h.t, h.normal)),
+            Some((1.0, Vec3::Y))
+        );
         assert_eq!(Shape::Plane.exit(Vec3::new(0.0, -1.0, 0.0), -Vec3::Y), None);
     }
 }

@@ -19,18 +19,22 @@ pub fn normal(p: Vec3) -> Vec3 {
 /// Every crossing of the torus surface by the line `o + t d`, ascending, with outward normals:
 /// an even number (0, 2 or 4), entering and leaving in turn.
 pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
-    let len = d.length();
-    if len == 0.0 {
+    // The direction is made unit in f64: normalised in f32 it is unit only to 1e-7, and the
+    // bounding-sphere step below would lose |o|² · 1e-7 (pinholes from far away).
+    let (od, dd) = (o.as_dvec3(), d.as_dvec3());
+    let len = dd.length();
+    if len == 0.0 || !len.is_finite() {
         return Vec::new();
     }
-    let (od, dd) = (o.as_dvec3(), d.as_dvec3() / len as f64);
+    let dd = dd / len;
     let r = minor as f64;
     // Start from the point of the line nearest the bounding sphere's entry (radius 1 + r),
     // which keeps the quartic's coefficients near 1 however far the origin is.
     let bound = 1.0 + r;
     let b = od.dot(dd);
-    let c = od.dot(od) - bound * bound;
-    let disc = b * b - c;
+    // b² − c as bound² − |q|², q the line's point nearest the centre: no cancellation.
+    let q = od - b * dd;
+    let disc = bound * bound - q.dot(q);
     if disc < 0.0 {
         return Vec::new();
     }
@@ -46,26 +50,26 @@ pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
     let a2 = 4.0 * h * h + 2.0 * g - 4.0 * horiz_dd;
     let a1 = 4.0 * h * g - 8.0 * horiz_pd;
     let a0 = g * g - 4.0 * horiz_pp;
-    let mut out: Vec<(f32, Vec3)> = quartic_roots(a3, a2, a1, a0)
-        .into_iter()
+    let mut ss = quartic_roots(a3, a2, a1, a0);
+    // A grazing double root may come out once: pair it with itself so entering and leaving
+    // still alternate. It is the root where the quartic is flattest.
+    if ss.len() % 2 == 1 {
+        let slope = |x: f64| (((4.0 * x + 3.0 * a3) * x + 2.0 * a2) * x + a1).abs();
+        let i = pair_odd_root(&ss, slope);
+        ss.insert(i, ss[i]);
+    }
+    ss.into_iter()
         .map(|s| {
             let t = s + shift;
-            ((t / len as f64) as f32, normal((od + t * dd).as_vec3()))
+            ((t / len) as f32, normal((od + t * dd).as_vec3()))
         })
-        .collect();
-    // A grazing double root may come out once: pair it with itself so entering and leaving
-    // still alternate.
-    if out.len() % 2 == 1 {
-        let i = (1..out.len()).min_by(|&i, &j| (out[i].0 - out[i - 1].0).total_cmp(&(out[j].0 - out[j - 1].0)));
-        match i {
-            Some(i) if out.len() > 1 => {
-                out.remove(i);
-                out.remove(i - 1);
-            }
-            _ => out.clear(),
-        }
-    }
-    out
+        .collect()
+}
+
+/// Which of an odd number of roots is the double root that came out once: the one where the
+/// polynomial's slope is smallest.
+fn pair_odd_root(roots: &[f64], slope: impl Fn(f64) -> f64) -> usize {
+    (0..roots.len()).min_by(|&i, &j| slope(roots[i]).total_cmp(&slope(roots[j]))).unwrap_or(0)
 }
 
 /// The first crossing of the torus surface by `o + t d` with `tmin < t < tmax`.
@@ -90,6 +94,33 @@ mod tests {
         // From inside the tube, the next crossing: the inner wall at x = -0.75.
         let (t, _) = first_hit(0.25, Vec3::new(-1.0, 0.0, 0.0), Vec3::X, 0.0, f32::INFINITY).unwrap();
         assert!((t - 0.25).abs() < 1e-5);
+    }
+
+    #[test]
+    fn regression_an_odd_root_count_is_repaired_by_doubling_the_grazing_root() {
+        // Roots 0, 1 (a double root that came out once: slope 0) and 2: the repair keeps all
+        // three and doubles the middle one (before the fix it removed two roots).
+        let mut roots = vec![0.0, 1.0, 2.0];
+        let i = pair_odd_root(&roots, |x| (x - 1.0).abs());
+        roots.insert(i, roots[i]);
+        assert_eq!(roots, [0.0, 1.0, 1.0, 2.0]);
+    }
+
+    #[test]
+    fn regression_no_pinholes_from_20000_units() {
+        // Rays from 20,000 units away aimed across the tube's top must all hit it (before the
+        // fix, the f32-normalised direction made b² − c lose 20000² · 1e-7 ≈ 40).
+        let target_count = 200;
+        let mut missed = 0;
+        for k in 0..target_count {
+            let a = k as f32 / target_count as f32 * std::f32::consts::TAU;
+            let target = Vec3::new(a.cos(), 0.1, a.sin()) * Vec3::new(1.1, 1.0, 1.1);
+            let o = Vec3::new(3.0, 16_000.0, -12_000.0);
+            if first_hit(0.3, o, target - o, 0.0, f32::INFINITY).is_none() {
+                missed += 1;
+            }
+        }
+        assert_eq!(missed, 0);
     }
 
     #[test]

@@ -11,7 +11,7 @@
 
 use glam::Vec3;
 use lancer_core::Light;
-use lancer_shapes::Origin;
+use lancer_shapes::Hit;
 
 use crate::{Params, ShadowContext, ShadowModel, ShadowSpec};
 
@@ -26,8 +26,8 @@ pub const SPEC: ShadowSpec = ShadowSpec {
 struct Hard;
 
 impl ShadowModel for Hard {
-    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, light: &Light) -> Vec3 {
-        let Some((dir, dist)) = ctx.toward(from, light.at) else { return Vec3::ONE };
-        if ctx.blocked(from, dir, dist) { Vec3::ZERO } else { Vec3::ONE }
+    fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3 {
+        let Some((dir, dist)) = ctx.toward(at, light.at) else { return Vec3::ONE };
+        if ctx.blocked(at, dir, dist) { Vec3::ZERO } else { Vec3::ONE }
     }
 }

@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 use lancer_core::Light;
-use lancer_shapes::Origin;
+use lancer_shapes::Hit;
 
 use crate::{Params, ShadowContext, ShadowModel, ShadowSpec};
 
@@ -24,7 +24,7 @@ pub const SPEC: ShadowSpec = ShadowSpec {
 struct NoShadows;
 
 impl ShadowModel for NoShadows {
-    fn transmittance(&self, _: &ShadowContext<'_>, _: Origin, _: &Light) -> Vec3 {
+    fn transmittance(&self, _: &ShadowContext<'_>, _: &Hit, _: &Light) -> Vec3 {
         Vec3::ONE
     }
 }

@@ -20,7 +20,7 @@
 
 use glam::Vec3;
 use lancer_core::Light;
-use lancer_shapes::Origin;
+use lancer_shapes::Hit;
 
 use super::transmissive::{TINT, through_occluders};
 use crate::{ParamError, ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
@@ -79,20 +79,20 @@ impl Soft {
 }
 
 impl ShadowModel for Soft {
-    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, light: &Light) -> Vec3 {
+    fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3 {
         if light.size <= 0.0 {
-            return match ctx.toward(from, light.at) {
-                Some((dir, dist)) => through_occluders(ctx, from, dir, dist, self.tint),
+            return match ctx.toward(at, light.at) {
+                Some((dir, dist)) => through_occluders(ctx, at, dir, dist, self.tint),
                 None => Vec3::ONE,
             };
         }
-        let p = from.point;
+        let p = at.point;
         let seed = mix(((p.x.to_bits() as u64) << 32 | p.y.to_bits() as u64) ^ mix(p.z.to_bits() as u64));
         let n = self.side * self.side;
         let mut sum = Vec3::ZERO;
         for cell in 0..n {
-            if let Some((dir, dist)) = ctx.toward(from, self.sample(light, seed, cell)) {
-                sum += through_occluders(ctx, from, dir, dist, self.tint);
+            if let Some((dir, dist)) = ctx.toward(at, self.sample(light, seed, cell)) {
+                sum += through_occluders(ctx, at, dir, dist, self.tint);
             }
         }
         sum / n as f32

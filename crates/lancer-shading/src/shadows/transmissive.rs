@@ -12,7 +12,7 @@
 
 use glam::Vec3;
 use lancer_core::Light;
-use lancer_shapes::{Origin, offset_origin};
+use lancer_shapes::Hit;
 
 use crate::{ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 
@@ -37,77 +37,133 @@ struct Transmissive {
 }
 
 impl ShadowModel for Transmissive {
-    fn transmittance(&self, ctx: &ShadowContext<'_>, from: Origin, light: &Light) -> Vec3 {
-        match ctx.toward(from, light.at) {
-            Some((dir, dist)) => through_occluders(ctx, from, dir, dist, self.tint),
+    fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3 {
+        match ctx.toward(at, light.at) {
+            Some((dir, dist)) => through_occluders(ctx, at, dir, dist, self.tint),
             None => Vec3::ONE,
         }
     }
 }
 
-/// The light left after crossing every object between `from` and the point at `dist` along
-/// `dir`: each transparent object crossed multiplies it by its `alpha` (and colour with `tint`)
-/// once; an opaque one stops it.
-pub fn through_occluders(ctx: &ShadowContext<'_>, from: Origin, dir: Vec3, dist: f32, tint: bool) -> Vec3 {
+/// The light left after crossing every object between the surface at `at` and the point at
+/// `dist` along `dir`: each transparent object crossed multiplies it by its `alpha` (and its
+/// colour where the ray enters, with `tint`) once; an opaque one stops it. A closed object counts
+/// once, from where the ray enters it to where it leaves ([`lancer_shapes::Geometry::past`], the
+/// same exit query as the refraction path); a surface with no inside (a disk, an open mesh)
+/// counts at each crossing, and the ray goes on beyond it.
+pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32, tint: bool) -> Vec3 {
     let mut light = Vec3::ONE;
-    let (mut from, mut left) = (from, dist);
+    let mut surface = *at;
     for _ in 0..MAX_CROSSINGS {
+        let from = ctx.geometry.spawn(&surface, dir);
+        let left = dist - (from.point - at.point).dot(dir);
+        if left <= 0.0 {
+            return light;
+        }
         let Some(hit) = ctx.occluder(from, dir, left) else {
             return light;
         };
-        let m = ctx.material(hit.object);
+        let m = ctx.material_of(hit.object);
         if m.alpha <= 0.0 {
             return Vec3::ZERO;
         }
-        let p = from.point + hit.t * dir;
-        light *= if tint { m.alpha * ctx.color_at(hit.object, p) } else { Vec3::splat(m.alpha) };
-        // Count each object once: jump from its entry to where the ray leaves it.
-        let past = if hit.front {
-            let inside = offset_origin(p, -hit.normal);
-            match ctx.geometry.exit(hit.object, inside, dir) {
-                Some(exit) => ctx.geometry.leave(hit.object, inside + exit.t * dir, exit.normal),
-                // It never ends (a plane's half-space): the light is inside it.
-                None => return light,
-            }
-        } else {
-            ctx.geometry.leave(hit.object, p, hit.normal)
-        };
-        let moved = (past.point - from.point).dot(dir);
-        if moved >= left {
-            return light;
+        light *= if tint { m.alpha * ctx.color_at(&hit) } else { Vec3::splat(m.alpha) };
+        match ctx.geometry.past(&hit, dir) {
+            Some(past) => surface = past,
+            // It never ends (a plane's half-space): the light is inside it.
+            None => return light,
         }
-        left -= moved;
-        from = past;
     }
     Vec3::ZERO
 }
 
 #[cfg(test)]
 mod tests {
-    use glam::{Affine3A, Vec3};
-    use lancer_core::{Light, Material};
-    use lancer_shapes::{Geometry, Object, Origin, Shape};
+    use glam::{Affine3A, Vec2, Vec3};
+    use lancer_core::{Light, Material, Pattern, Texture};
+    use lancer_shapes::{Geometry, Mesh, Object, Origin, Shape};
 
-    use crate::{Params, ShadowContext};
+    use crate::{Params, ShadeContext, ShadowContext};
 
     fn sphere_at(z: f32, material: u32) -> Object {
         Object::new(Shape::Sphere, Affine3A::from_translation(Vec3::new(0.0, 0.0, z)), material).unwrap()
     }
 
-    fn transmittance(model: &str, tint: bool, objects: Vec<Object>, dist: f32) -> Vec3 {
+    /// The light from `light_at` reaching the point `at` (on a small opaque disk facing +z, added
+    /// as the last object), through `objects` with materials 0 = glass (alpha 0.5, orange),
+    /// 1 = opaque, 2 = glass textured with `texture`.
+    fn reaching(model: &str, tint: bool, objects: Vec<Object>, at: Vec3, light_at: Vec3, textures: &[Texture]) -> Vec3 {
         let glass = Material { color: Vec3::new(1.0, 0.5, 0.25), alpha: 0.5, ..Material::default() };
         let opaque = Material::default();
+        let textured =
+            Material { alpha: 0.5, pattern: Pattern::Image { texture: 0, scale: 1.0 }, ..Material::default() };
+        let materials = [glass, opaque, textured];
+        let mut objects = objects;
+        let facing_z = Affine3A::from_translation(at) * Affine3A::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+        objects.push(Object::new(Shape::Disk, facing_z * Affine3A::from_scale(Vec3::splat(1e-3)), 1).unwrap());
         let g = Geometry::new(objects);
-        let materials = [glass, opaque];
-        let ctx = ShadowContext::new(&g, &materials, &[]);
+        let scene = ShadeContext { geometry: &g, materials: &materials, lights: &[], max_depth: 5, textures };
+        let ctx = ShadowContext::new(&scene);
+        let hit = g.closest_hit(Origin::free(at + Vec3::new(0.0, 0.0, -1.0)), Vec3::Z, 0.0, 2.0).unwrap();
+        assert_eq!(hit.object as usize, g.objects.len() - 1, "the shaded point is on the little disk");
         let params = if model == "transmissive" {
             Params::new([("tint".to_owned(), crate::ParamValue::Bool(tint))])
         } else {
             Params::default()
         };
         let m = crate::Registry::with_builtins().build_shadow(model, params).unwrap();
-        let light = Light { at: Vec3::new(0.0, 0.0, dist), color: Vec3::ONE, intensity: 1.0, size: 0.0 };
-        m.model.transmittance(&ctx, Origin::free(Vec3::ZERO), &light)
+        let light = Light { at: light_at, color: Vec3::ONE, intensity: 1.0, size: 0.0 };
+        m.model.transmittance(&ctx, &hit, &light)
+    }
+
+    fn transmittance(model: &str, tint: bool, objects: Vec<Object>, dist: f32) -> Vec3 {
+        reaching(model, tint, objects, Vec3::ZERO, Vec3::new(0.0, 0.0, dist), &[])
+    }
+
+    #[test]
+    fn regression_an_open_glass_surface_does_not_hide_what_is_behind_it() {
+        // A glass disk, then an opaque sphere, between the point and the light: the sphere still
+        // blocks (before the fix the disk, having no exit, ended the shadow ray: 0.5).
+        let disk = Object::new(
+            Shape::Disk,
+            Affine3A::from_translation(Vec3::new(0.0, 0.0, 2.0))
+                * Affine3A::from_rotation_x(std::f32::consts::FRAC_PI_2),
+            0,
+        )
+        .unwrap();
+        assert_eq!(transmittance("transmissive", false, vec![disk.clone(), sphere_at(5.0, 1)], 10.0), Vec3::ZERO);
+        // Alone, the disk dims the light once.
+        assert_eq!(transmittance("transmissive", false, vec![disk], 10.0), Vec3::splat(0.5));
+    }
+
+    #[test]
+    fn regression_a_textured_glass_mesh_tints_its_shadow_where_the_ray_crosses_it() {
+        // A square pane at z = 2, its left half red and its right half blue in the texture: the
+        // light through each half takes that half's colour (before the fix every shadow ray read
+        // the texel at (0, 0): one colour everywhere).
+        let texture = Texture { width: 2, height: 1, pixels: vec![Vec3::X, Vec3::Z] };
+        let positions = vec![
+            Vec3::new(-1.0, -1.0, 2.0),
+            Vec3::new(1.0, -1.0, 2.0),
+            Vec3::new(1.0, 1.0, 2.0),
+            Vec3::new(-1.0, 1.0, 2.0),
+        ];
+        let uvs = vec![Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 0.0)];
+        let pane = Mesh::new(positions, Vec::new(), uvs, vec![[0, 1, 2], [0, 2, 3]]).unwrap();
+        let pane = Object::new(Shape::Mesh(std::sync::Arc::new(pane)), Affine3A::IDENTITY, 2).unwrap();
+        let through = |x: f32| {
+            let at = Vec3::new(x, 0.0, 0.0);
+            reaching(
+                "transmissive",
+                true,
+                vec![pane.clone()],
+                at,
+                at + Vec3::new(0.0, 0.0, 10.0),
+                std::slice::from_ref(&texture),
+            )
+        };
+        assert_eq!(through(-0.5), Vec3::new(0.5, 0.0, 0.0));
+        assert_eq!(through(0.5), Vec3::new(0.0, 0.0, 0.5));
     }
 
     #[test]

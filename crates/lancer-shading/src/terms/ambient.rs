@@ -23,6 +23,10 @@ pub const SPEC: TermSpec = TermSpec {
 struct Ambient;
 
 impl Term for Ambient {
+    fn reads_lights(&self, _: &lancer_core::Material) -> bool {
+        false
+    }
+
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);

@@ -24,6 +24,10 @@ pub const SPEC: TermSpec = TermSpec {
 struct Lambert;
 
 impl Term for Lambert {
+    fn reads_lights(&self, material: &lancer_core::Material) -> bool {
+        material.diff > 0.0
+    }
+
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);

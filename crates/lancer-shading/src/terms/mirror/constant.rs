@@ -29,15 +29,19 @@ pub const SPEC: TermSpec = TermSpec {
 struct Mirror;
 
 impl Term for Mirror {
+    fn reads_lights(&self, _: &lancer_core::Material) -> bool {
+        false
+    }
+
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);
             if m.spec <= 0.0 || !out.can_spawn(lane) {
                 continue;
             }
-            let (p, n) = facing(&chunk, lane);
+            let (_, n) = facing(&chunk, lane);
             let u_r = reflect(chunk.rays.dir[lane], n);
-            let from = ctx.geometry.leave(chunk.hits.object[lane], p, n);
+            let from = ctx.geometry.spawn(&ctx.hit(chunk.hits, lane), u_r);
             out.spawn(lane, from, u_r, Vec3::splat(m.spec));
         }
     }

@@ -38,17 +38,21 @@ struct Schlick {
 }
 
 impl Term for Schlick {
+    fn reads_lights(&self, _: &lancer_core::Material) -> bool {
+        false
+    }
+
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);
             if m.spec <= 0.0 || !out.can_spawn(lane) {
                 continue;
             }
-            let (p, n) = facing(&chunk, lane);
+            let (_, n) = facing(&chunk, lane);
             let u = chunk.rays.dir[lane];
             let f = schlick(n.dot(u), self.f0.unwrap_or_else(|| f0_from_index(m.n)));
-            let from = ctx.geometry.leave(chunk.hits.object[lane], p, n);
-            out.spawn(lane, from, reflect(u, n), Vec3::splat(f));
+            let u_r = reflect(u, n);
+            out.spawn(lane, ctx.geometry.spawn(&ctx.hit(chunk.hits, lane), u_r), u_r, Vec3::splat(f));
         }
     }
 }

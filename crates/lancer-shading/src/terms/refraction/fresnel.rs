@@ -47,23 +47,27 @@ pub fn split(cos: f32, n: f32, front: bool) -> (f32, f32) {
 }
 
 impl Term for Fresnel {
+    fn reads_lights(&self, _: &lancer_core::Material) -> bool {
+        false
+    }
+
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);
             if m.alpha <= 0.0 || !out.can_spawn(lane) {
                 continue;
             }
-            let (object, front) = (chunk.hits.object[lane], chunk.hits.front[lane]);
-            let (p, n_facing) = facing(&chunk, lane);
+            let hit = ctx.hit(chunk.hits, lane);
+            let (_, n_facing) = facing(&chunk, lane);
             let u = chunk.rays.dir[lane];
-            let (r_in, t_in) = split(n_facing.dot(u), m.n, front);
-            if front && r_in > 0.0 {
-                let from = ctx.geometry.leave(object, p, n_facing);
-                out.spawn(lane, from, reflect(u, n_facing), Vec3::splat(m.alpha * r_in));
+            let (r_in, t_in) = split(n_facing.dot(u), m.n, hit.front);
+            if hit.front && r_in > 0.0 {
+                let u_r = reflect(u, n_facing);
+                out.spawn(lane, ctx.geometry.spawn(&hit, u_r), u_r, Vec3::splat(m.alpha * r_in));
             }
-            let Some(t) = passage(ctx, object, p, chunk.hits.normal[lane], u, m.n, front) else { continue };
+            let Some(t) = passage(ctx, &hit, u, m.n) else { continue };
             // Leaving from inside, the entry split already was the exit's.
-            let t_out = if front { split(t.exit_cos, m.n, false).1 } else { 1.0 };
+            let t_out = if hit.front { split(t.exit_cos, m.n, false).1 } else { 1.0 };
             let absorption =
                 if self.absorb > 0.0 { ctx.color(chunk.hits, lane).powf(t.length / self.absorb) } else { Vec3::ONE };
             out.spawn(lane, t.from, t.dir, m.alpha * t_in * t_out * absorption);

@@ -11,7 +11,7 @@ pub mod seed;
 
 use glam::Vec3;
 use lancer_core::optics::{reflect, vct_transmis};
-use lancer_shapes::{Origin, offset_origin};
+use lancer_shapes::{Hit, Origin};
 
 use crate::ShadeContext;
 
@@ -28,47 +28,55 @@ pub struct Passage {
     pub exit_cos: f32,
 }
 
-/// The ray `R_t` that leaves the object after entering it at `p` (with outward normal `n_out`,
-/// direction `u`, index `n`), or, with `front = false`, that reaches its surface at `p` from
-/// inside. Entering uses `VctTransmis(u, −N, 1/n)` (the normal on the transmission side); the ray
-/// crosses the object meeting nothing else, to the exit `J` found by the shape's exit query.
-/// Total internal reflection at `J` reflects the ray inside, at most `max_depth` times.
-/// `None` when it never leaves.
-pub fn passage(
-    ctx: &ShadeContext<'_>,
-    object: u32,
-    p: Vec3,
-    n_out: Vec3,
-    u: Vec3,
-    n: f32,
-    front: bool,
-) -> Option<Passage> {
-    // (position on the surface, direction inside, outward normal there)
+/// The ray `R_t` that leaves the object after entering it at `hit` (direction `u`, index `n`),
+/// or, for a back-face `hit`, that reaches its surface there from inside. Entering uses
+/// `VctTransmis(u, −N, 1/n)` (the normal on the transmission side); the ray crosses the object
+/// meeting nothing else, to the exit `J` found by [`lancer_shapes::Geometry::exit`] (the same
+/// query the transmissive shadows use). Total internal reflection at `J` reflects the ray inside,
+/// at most `max_depth` times. `None` when it never leaves.
+///
+/// Directions bend about the shading normal; where a smooth mesh's interpolated normal would send
+/// the ray to the wrong side of the actual surface (near a silhouette), the geometric normal is
+/// used instead, so the ray always goes in on entering and out on leaving.
+pub fn passage(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Option<Passage> {
     let mut length = 0.0;
-    let (mut pos, mut dir, mut normal) = if front {
-        let u_t = vct_transmis(u, -n_out, 1.0 / n)?;
-        let inside = offset_origin(p, -n_out);
-        let exit = ctx.geometry.exit(object, inside, u_t)?;
-        length += exit.t;
-        (inside + exit.t * u_t, u_t, exit.normal)
+    let (mut at, mut dir) = if hit.front {
+        let u_t = bend(u, hit, 1.0 / n, false)?;
+        let exit = ctx.geometry.exit(hit, u_t)?;
+        length += (exit.point - hit.point).length();
+        (exit, u_t)
     } else {
-        (p, u, n_out)
+        (*hit, u)
     };
     for _ in 0..=ctx.max_depth {
-        match vct_transmis(dir, normal, n) {
+        match bend(dir, &at, n, true) {
             Some(v_t) => {
-                let from = ctx.geometry.leave(object, pos, normal);
-                return Some(Passage { from, dir: v_t, length, exit_cos: normal.dot(dir).clamp(0.0, 1.0) });
+                let from = ctx.geometry.spawn(&at, v_t);
+                let exit_cos = at.shading.dot(dir).clamp(0.0, 1.0);
+                return Some(Passage { from, dir: v_t, length, exit_cos });
             }
             None => {
-                dir = reflect(dir, normal);
-                let inside = offset_origin(pos, -normal);
-                let exit = ctx.geometry.exit(object, inside, dir)?;
-                length += exit.t;
-                pos = inside + exit.t * dir;
-                normal = exit.normal;
+                dir = reflect(dir, at.shading);
+                if dir.dot(at.normal) >= 0.0 {
+                    dir = reflect(dir, at.normal);
+                }
+                let exit = ctx.geometry.exit(&at, dir)?;
+                length += (exit.point - at.point).length();
+                at = exit;
             }
         }
     }
     None
+}
+
+/// `VctTransmis` through the surface of `at` with the index ratio `delta`, about the shading
+/// normal when that sends the ray to the right side of the geometric surface (out when
+/// `leaving`, in otherwise), else about the geometric normal. `None` on total internal reflection.
+fn bend(u: Vec3, at: &Hit, delta: f32, leaving: bool) -> Option<Vec3> {
+    let right_side = |v: Vec3| (v.dot(at.normal) > 0.0) == leaving;
+    let t = vct_transmis(u, if leaving { at.shading } else { -at.shading }, delta)?;
+    if right_side(t) {
+        return Some(t);
+    }
+    vct_transmis(u, if leaving { at.normal } else { -at.normal }, delta).filter(|&t| right_side(t))
 }

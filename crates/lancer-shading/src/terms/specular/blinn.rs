@@ -29,6 +29,10 @@ struct Blinn {
 }
 
 impl Term for Blinn {
+    fn reads_lights(&self, material: &lancer_core::Material) -> bool {
+        material.spec > 0.0 && material.shine > 0.0
+    }
+
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);

@@ -32,6 +32,10 @@ struct BlinnNormalized {
 }
 
 impl Term for BlinnNormalized {
+    fn reads_lights(&self, material: &lancer_core::Material) -> bool {
+        material.spec > 0.0
+    }
+
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);

@@ -37,6 +37,10 @@ pub fn phong_factor(shine: f32, c: f32) -> f32 {
 }
 
 impl Term for Phong {
+    fn reads_lights(&self, material: &lancer_core::Material) -> bool {
+        material.spec > 0.0 && material.shine > 0.0 && material.shine < 1.0
+    }
+
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);
