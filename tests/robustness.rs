@@ -201,6 +201,7 @@ fn the_same_scene_scaled_and_moved_gives_the_same_images() {
     let cases = [
         ("scaled by 1e-3", 1e-3, DVec3::ZERO),
         ("scaled by 1e3", 1e3, DVec3::ZERO),
+        ("scaled by 1e4", 1e4, DVec3::ZERO),
         ("moved by 1e4", 1.0, DVec3::new(1e4, -2e3, 7e3)),
         ("scaled by 1e-2 and moved by 1e2", 1e-2, DVec3::new(100.0, 50.0, -100.0)),
     ];
@@ -281,23 +282,6 @@ fn surfaces_seen_from_20000_units_do_not_shadow_themselves() {
         assert!(lit > 500, "from {distance}: only {lit} lit pixels");
         assert_eq!(dark, 0, "from {distance}: {dark} of {lit} lit pixels shadow themselves");
     }
-}
-
-#[test]
-fn a_torus_seen_from_20000_units_has_no_pinholes() {
-    let frame = render_overhead(20_000.0, "none");
-    let amb = layer(&frame, "ambient");
-    let (w, h) = (frame.width as usize, frame.height as usize);
-    let covered = |i: usize, j: usize| amb[j * w + i].max_element() > 0.0;
-    let mut pinholes = 0;
-    for j in 1..h - 1 {
-        for i in 1..w - 1 {
-            if !covered(i, j) && covered(i - 1, j) && covered(i + 1, j) && covered(i, j - 1) && covered(i, j + 1) {
-                pinholes += 1;
-            }
-        }
-    }
-    assert_eq!(pinholes, 0, "{pinholes} pinholes");
 }
 
 #[test]

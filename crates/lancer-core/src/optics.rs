@@ -92,22 +92,21 @@ mod tests {
     }
 
     #[test]
-    fn wrong_side_normal_is_what_the_sign_trap_looks_like() {
-        // Using the outward normal at entry (the handout's trap) sends the ray back up: a
-        // mirror-like direction. This documents why callers must flip it.
-        let u = Vec3::new(0.6, -0.8, 0.0);
-        let ps = Vec3::Y.dot(u);
-        let delta = 1.0 / 1.5f32;
-        let k = 1.0 - delta * delta * (1.0 - ps * ps);
-        let trap = (k.sqrt() - delta * ps) * Vec3::Y + delta * u;
-        assert!(trap.y > 0.0);
+    fn a_normal_on_the_wrong_side_is_turned_round_not_a_mirror_direction() {
+        // The handout's sign trap: given the outward normal at an entry point, the formula would
+        // send the ray back up. `vct_transmis` turns such a normal round, so both give Snell's
+        // direction, worked out by hand: sin θt = 0.6 / 1.5 = 0.4, cos θt = √0.84.
+        let (u, delta) = (Vec3::new(0.6, -0.8, 0.0), 1.0 / 1.5);
+        let right = vct_transmis(u, -Vec3::Y, delta).unwrap();
+        assert!(close(right, Vec3::new(0.4, -(0.84f32).sqrt(), 0.0)), "{right}");
+        assert!(close(vct_transmis(u, Vec3::Y, delta).unwrap(), right));
     }
 
     #[test]
     fn critical_angle_and_beyond_is_total_internal_reflection() {
         let n = 1.5f32;
         let crit = critical_angle(n, 1.0).unwrap();
-        assert!((crit - (1.0 / n).asin()).abs() < 1e-7);
+        assert!((crit - 0.729_727_66).abs() < 1e-6, "asin(1/1.5) = 41.81°: {crit}");
         // Leaving through a face with outward normal +y (transmission side), from inside.
         let dir = |a: f32| Vec3::new(a.sin(), a.cos(), 0.0);
         let below = vct_transmis(dir(crit - 1e-3), Vec3::Y, n).unwrap();
@@ -174,9 +173,11 @@ mod fresnel_tests {
             let c = k as f32 / 1000.0;
             for (a, b) in [(1.0, 1.5), (1.5, 1.0), (1.0, 2.4), (2.4, 1.0)] {
                 let r = fresnel_dielectric(c, a, b);
-                assert!((0.0..=1.0).contains(&r), "cos {c}, {a} -> {b}: {r}");
+                assert!(r.is_finite() && (0.0..=1.0).contains(&r), "cos {c}, {a} -> {b}: {r}");
             }
         }
+        // At 45° from air into n = 1.5 (rs = −0.30335, rp = 0.09206, worked out by hand).
+        assert!((fresnel_dielectric(std::f32::consts::FRAC_1_SQRT_2, 1.0, 1.5) - 0.050_240).abs() < 1e-5);
         // Brewster's angle: p-polarised reflection vanishes, so R = rs² / 2 there, with rs from
         // the sine form of the Fresnel equations, −sin(θi − θt) / sin(θi + θt).
         let (ti, tt) = (1.5f64.atan(), (1.5f64.atan().sin() / 1.5).asin());

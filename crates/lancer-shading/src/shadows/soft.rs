@@ -117,7 +117,12 @@ mod tests {
         }
         assert!(cells.iter().all(|&c| c == 1), "one sample per stratum: {cells:?}");
         // The same point and cell give the same sample; another point jitters differently.
-        assert_eq!(soft.sample(&light, 7, 3), soft.sample(&light, 7, 3));
+        // The jitter fills its cell: over many points, cell 1 (x in [−0.5, 0)) is covered
+        // from edge to edge and never left.
+        let xs: Vec<f32> = (0..4096u64).map(|s| (soft.sample(&light, mix(s), 1) - light.at).x).collect();
+        let (lo, hi) = xs.iter().fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+        assert!(lo >= -0.5 && lo < -0.49 && hi < 0.0 && hi > -0.01, "{lo} .. {hi}");
+        // Another point jitters differently.
         assert_ne!(soft.sample(&light, 7, 3), soft.sample(&light, 8, 3));
     }
 

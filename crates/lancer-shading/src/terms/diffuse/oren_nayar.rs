@@ -25,11 +25,7 @@ pub const SPEC: TermSpec = TermSpec {
     variant: "oren-nayar",
     summary: "Oren–Nayar: Lambert for rough surfaces, flatter and brighter at the rim",
     params: &[ParamSpec { name: "roughness", default: "20", doc: "surface roughness σ in degrees (0 = Lambert)" }],
-    build: |p: &mut Params| {
-        let sigma = (p.number("roughness", 20.0, 0.0, 90.0)? as f32).to_radians();
-        let s2 = sigma * sigma;
-        Ok(Box::new(OrenNayar { a: 1.0 - 0.5 * s2 / (s2 + 0.33), b: 0.45 * s2 / (s2 + 0.09) }))
-    },
+    build: |p: &mut Params| Ok(Box::new(OrenNayar::new(p.number("roughness", 20.0, 0.0, 90.0)? as f32))),
 };
 
 struct OrenNayar {
@@ -38,6 +34,13 @@ struct OrenNayar {
 }
 
 impl OrenNayar {
+    /// The model for a roughness σ of `degrees`: `A = 1 − σ²/(2 (σ² + 0.33))`,
+    /// `B = 0.45 σ²/(σ² + 0.09)`, σ in radians.
+    fn new(degrees: f32) -> OrenNayar {
+        let s2 = degrees.to_radians() * degrees.to_radians();
+        OrenNayar { a: 1.0 - 0.5 * s2 / (s2 + 0.33), b: 0.45 * s2 / (s2 + 0.09) }
+    }
+
     /// The factor on Lambert's `N·w` for light `w`, view `v = −u`, normal `n`.
     #[inline]
     fn factor(&self, n: Vec3, w: Vec3, v: Vec3, nw: f32) -> f32 {
@@ -79,9 +82,16 @@ mod tests {
     use super::*;
 
     fn model(deg: f64) -> OrenNayar {
-        let mut p = Params::new([("roughness".to_owned(), crate::ParamValue::Number(deg))]);
-        let s = (p.number("roughness", 0.0, 0.0, 90.0).unwrap() as f32).to_radians();
-        OrenNayar { a: 1.0 - 0.5 * s * s / (s * s + 0.33), b: 0.45 * s * s / (s * s + 0.09) }
+        OrenNayar::new(deg as f32)
+    }
+
+    #[test]
+    fn coefficients_for_twenty_degrees() {
+        // σ = 20° = 0.349066 rad, σ² = 0.121847: A = 1 − 0.060924 / 0.451847, B = 0.054831 / 0.211847.
+        let m = model(20.0);
+        assert!((m.a - 0.865_168).abs() < 1e-5 && (m.b - 0.258_824).abs() < 1e-5, "{} {}", m.a, m.b);
+        // Light and viewer both straight above: θi = θr = 0, so the factor is A.
+        assert!((m.factor(Vec3::Y, Vec3::Y, Vec3::Y, 1.0) - m.a).abs() < 1e-6);
     }
 
     #[test]
