@@ -121,7 +121,7 @@ mod tests {
         // from edge to edge and never left.
         let xs: Vec<f32> = (0..4096u64).map(|s| (soft.sample(&light, mix(s), 1) - light.at).x).collect();
         let (lo, hi) = xs.iter().fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
-        assert!(lo >= -0.5 && lo < -0.49 && hi < 0.0 && hi > -0.01, "{lo} .. {hi}");
+        assert!((-0.5..-0.49).contains(&lo) && (-0.01..0.0).contains(&hi), "{lo} .. {hi}");
         // Another point jitters differently.
         assert_ne!(soft.sample(&light, 7, 3), soft.sample(&light, 8, 3));
     }
