@@ -76,3 +76,21 @@ fn the_terms_list_decides_which_images_exist() {
     assert!(full.layer("diffuse") == two.layer("diffuse"), "diffuse depends on the other terms");
     assert_ne!(full.beauty(), two.beauty());
 }
+
+#[test]
+fn regression_lanes_alive_at_once_grew_with_samples_per_pixel() {
+    // A tile's camera rays were all generated at once (and every chunk kept the capacity of the
+    // rays behind it): memory grew with the samples per pixel, and 4096 samples of a 16×9 image
+    // were killed for memory. Now samples go in waves: the most lanes alive at once stays put.
+    let src = std::fs::read_to_string(lancer_tests::root().join("scenes/showcase.toml")).unwrap();
+    let peak = |spp: u32| {
+        let mut loaded = lancer_tests::load(&src);
+        (loaded.scene.image.width, loaded.scene.image.height, loaded.scene.image.samples) = (16, 9, spp);
+        render(&loaded, None, 2).stats.peak_lanes
+    };
+    let (p16, p1024) = (peak(16), peak(1024));
+    // 16 × 9 × 16 = 2304 camera rays fit in one wave; 1024 samples are 147,456 camera rays.
+    assert!(p16 >= 2304, "{p16}");
+    let bound = 2 * lancer_shading::WAVE as u64;
+    assert!(p1024 <= bound, "{p1024} lanes alive at once at 1024 samples (bound {bound})");
+}

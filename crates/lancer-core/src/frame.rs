@@ -25,6 +25,9 @@ pub struct RenderStats {
     /// Shadow rays the shadow model traced (one per light in front of a hit for `hard`; one per
     /// occluder crossed for `transmissive`; per sample for `soft`).
     pub shadow_rays: u64,
+    /// The most ray lanes alive at once in one tile's generation: bounded by the size of a wave
+    /// of camera rays (and its children), whatever the number of samples per pixel.
+    pub peak_lanes: u64,
 }
 
 impl RenderStats {
@@ -39,6 +42,7 @@ impl std::ops::AddAssign for RenderStats {
         self.camera_rays += o.camera_rays;
         self.secondary_rays += o.secondary_rays;
         self.shadow_rays += o.shadow_rays;
+        self.peak_lanes = self.peak_lanes.max(o.peak_lanes);
     }
 }
 

@@ -57,6 +57,29 @@ impl Rays {
         }
     }
 
+    /// Removes every lane, keeping the capacity.
+    pub fn clear(&mut self) {
+        self.origin.clear();
+        self.skip.clear();
+        self.dir.clear();
+        self.weight.clear();
+        self.pixel.clear();
+        self.depth.clear();
+        self.credit.clear();
+    }
+
+    /// Replaces the lanes with `src`'s lanes `range`, reusing this chunk's capacity.
+    pub fn copy_from(&mut self, src: &Rays, range: std::ops::Range<usize>) {
+        self.clear();
+        self.origin.extend_from_slice(&src.origin[range.clone()]);
+        self.skip.extend_from_slice(&src.skip[range.clone()]);
+        self.dir.extend_from_slice(&src.dir[range.clone()]);
+        self.weight.extend_from_slice(&src.weight[range.clone()]);
+        self.pixel.extend_from_slice(&src.pixel[range.clone()]);
+        self.depth.extend_from_slice(&src.depth[range.clone()]);
+        self.credit.extend_from_slice(&src.credit[range]);
+    }
+
     /// Appends one lane.
     #[inline]
     #[allow(clippy::too_many_arguments)]
@@ -113,6 +136,23 @@ impl Hits {
         }
     }
 
+    /// Makes these columns `n` lanes of misses, reusing their capacity.
+    pub fn reset(&mut self, n: usize) {
+        fn fill<T: Clone>(v: &mut Vec<T>, n: usize, x: T) {
+            v.clear();
+            v.resize(n, x);
+        }
+        fill(&mut self.t, n, f32::INFINITY);
+        fill(&mut self.point, n, Vec3::ZERO);
+        fill(&mut self.local, n, Vec3::ZERO);
+        fill(&mut self.uv, n, glam::Vec2::ZERO);
+        fill(&mut self.normal, n, Vec3::ZERO);
+        fill(&mut self.shading, n, Vec3::ZERO);
+        fill(&mut self.error, n, 0.0);
+        fill(&mut self.front, n, true);
+        fill(&mut self.object, n, NO_HIT);
+    }
+
     /// The shading normal facing the incoming ray (the outward one turned round on a back-face
     /// hit).
     #[inline]
@@ -137,6 +177,15 @@ impl LightSamples {
     /// Zeroed columns for `lanes` lanes and `lights` lights.
     pub fn dark(lanes: usize, lights: usize) -> LightSamples {
         LightSamples { lights, w: vec![Vec3::ZERO; lanes * lights], incoming: vec![Vec3::ZERO; lanes * lights] }
+    }
+
+    /// Makes these columns `lanes` lanes of darkness for `lights` lights, reusing their capacity.
+    pub fn reset(&mut self, lanes: usize, lights: usize) {
+        self.lights = lights;
+        self.w.clear();
+        self.w.resize(lanes * lights, Vec3::ZERO);
+        self.incoming.clear();
+        self.incoming.resize(lanes * lights, Vec3::ZERO);
     }
 
     /// The `(w, incoming)` pairs of one lane.

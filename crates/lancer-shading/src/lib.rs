@@ -21,6 +21,6 @@ pub use prepare::{PrepareError, Prepared, prepare};
 pub use registry::{
     ModelError, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec, WEIGHT, nearest,
 };
-pub use render::{RenderOptions, render, render_prepared};
+pub use render::{RenderOptions, WAVE, render, render_prepared};
 pub use shadow::{ShadowContext, ShadowModel};
 pub use term::{Chunk, ShadeContext, Term, TermOutput, sum_lights};

@@ -29,6 +29,11 @@ pub fn render(scene: &Scene, pipeline: &Pipeline, options: RenderOptions<'_>) ->
 
 /// Renders an already prepared scene. The result is the same, bit for bit, whatever the number
 /// of threads: tiles are independent and each is processed in a fixed order.
+///
+/// The frame's layers are allocated once and each band of tiles (a row of tiles: a contiguous
+/// run of every layer) writes its own part of them; a thread keeps its scratch buffers (the
+/// tile's hecs world, chunk columns, the next generation's rays, the tile's accumulators) from
+/// tile to tile, so the steady state allocates nothing.
 pub fn render_prepared(
     prepared: &Prepared,
     camera: &Camera,
@@ -37,9 +42,6 @@ pub fn render_prepared(
     options: RenderOptions<'_>,
 ) -> Frame {
     let (width, height) = (image.width, image.height);
-    let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
-        .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
     let ctx = ShadeContext {
         geometry: &prepared.geometry,
         materials: &prepared.materials,
@@ -47,34 +49,49 @@ pub fn render_prepared(
         max_depth: pipeline.max_depth,
         textures: &prepared.textures,
     };
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<(Vec<Vec<Vec3>>, RenderStats)> = tiles
-        .par_iter()
-        .map(|&(x0, y0)| {
-            let tile = Tile { x0, y0, w: TILE.min(width - x0), h: TILE.min(height - y0) };
-            let out = render_tile(&ctx, camera, image, pipeline, tile);
-            if let Some(progress) = options.progress {
-                progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, tiles.len());
-            }
-            out
-        })
-        .collect();
-
     let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
     names.push(BACKGROUND.to_owned());
     let mut layers: Vec<Layer> =
         names.into_iter().map(|name| Layer { name, pixels: vec![Vec3::ZERO; (width * height) as usize] }).collect();
-    let mut stats = RenderStats::default();
-    for (&(x0, y0), (tile, tile_stats)) in tiles.iter().zip(results) {
-        stats += tile_stats;
-        let w = TILE.min(width - x0) as usize;
-        for (layer, buf) in layers.iter_mut().zip(tile) {
-            for (row, src) in buf.chunks_exact(w).enumerate() {
-                let start = (y0 as usize + row) * width as usize + x0 as usize;
-                layer.pixels[start..start + w].copy_from_slice(src);
-            }
-        }
-    }
+
+    let band_len = (TILE * width) as usize;
+    let bands_count = height.div_ceil(TILE) as usize;
+    let tiles_count = bands_count * width.div_ceil(TILE) as usize;
+    let mut per_layer: Vec<_> = layers.iter_mut().map(|l| l.pixels.chunks_mut(band_len)).collect();
+    let bands: Vec<Vec<&mut [Vec3]>> = (0..bands_count)
+        .map(|_| per_layer.iter_mut().map(|chunks| chunks.next().expect("one chunk per band")).collect())
+        .collect();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let stats = bands
+        .into_par_iter()
+        .enumerate()
+        .map_init(
+            || Scratch::new(pipeline.terms.len() + 1),
+            |scratch, (band, mut out)| {
+                let mut stats = RenderStats::default();
+                let y0 = band as u32 * TILE;
+                for x0 in (0..width).step_by(TILE as usize) {
+                    let tile = Tile { x0, y0, w: TILE.min(width - x0), h: TILE.min(height - y0) };
+                    stats += render_tile(&ctx, camera, image, pipeline, tile, scratch);
+                    // The tile's pixels into the band's rows of every layer.
+                    for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
+                        for row in 0..tile.h as usize {
+                            let at = row * width as usize + x0 as usize;
+                            let src = &acc[row * tile.w as usize..(row + 1) * tile.w as usize];
+                            layer[at..at + tile.w as usize].copy_from_slice(src);
+                        }
+                    }
+                    if let Some(progress) = options.progress {
+                        progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, tiles_count);
+                    }
+                }
+                stats
+            },
+        )
+        .reduce(RenderStats::default, |mut a, b| {
+            a += b;
+            a
+        });
     Frame { width, height, layers, stats }
 }
 
@@ -84,6 +101,59 @@ struct Tile {
     y0: u32,
     w: u32,
     h: u32,
+}
+
+/// Most camera rays traced together in one tile: the samples of a tile are traced in waves of
+/// this many, so memory does not grow with the number of samples per pixel.
+pub const WAVE: usize = 4096;
+
+/// A thread's buffers, kept from tile to tile.
+struct Scratch {
+    world: hecs::World,
+    entities: Vec<hecs::Entity>,
+    /// Chunk columns whose entities were despawned, ready for the next generation.
+    pool: Vec<(Rays, Hits, LightSamples)>,
+    /// The rays of the next generation (the camera rays of a wave to begin with).
+    next: Rays,
+    /// The tile's pixels, per layer (terms in model order, then the background).
+    accum: Vec<Vec<Vec3>>,
+}
+
+impl Scratch {
+    fn new(layers: usize) -> Scratch {
+        Scratch {
+            world: hecs::World::new(),
+            entities: Vec::new(),
+            pool: Vec::new(),
+            next: Rays::with_capacity(WAVE),
+            accum: vec![Vec::with_capacity((TILE * TILE) as usize); layers],
+        }
+    }
+
+    /// Splits `next` into chunk entities (each spawned with all its components, from pooled
+    /// columns), leaving `next` empty.
+    fn spawn_chunks(&mut self, lights: usize) {
+        let n = self.next.len();
+        for start in (0..n).step_by(CHUNK_LANES) {
+            let range = start..(start + CHUNK_LANES).min(n);
+            let (mut rays, mut hits, mut samples) = self.pool.pop().unwrap_or_default();
+            rays.copy_from(&self.next, range.clone());
+            hits.reset(range.len());
+            samples.reset(range.len(), lights);
+            self.entities.push(self.world.spawn((rays, hits, samples)));
+        }
+        self.next.clear();
+    }
+
+    /// Takes every chunk's columns back into the pool and empties the world.
+    fn recycle(&mut self) {
+        for e in self.entities.drain(..) {
+            if let Ok(columns) = self.world.remove::<(Rays, Hits, LightSamples)>(e) {
+                self.pool.push(columns);
+            }
+        }
+        self.world.clear();
+    }
 }
 
 /// Sub-pixel position of sample `s` of `n`: the centre for one sample, else the R2
@@ -97,88 +167,71 @@ fn sample_offset(s: u32, n: u32) -> (f32, f32) {
     (((i / G).fract()) as f32, ((i / (G * G)).fract()) as f32)
 }
 
+/// Renders one tile into `scratch.accum` (tile-local rows), wave by wave of camera rays.
 fn render_tile(
     ctx: &ShadeContext<'_>,
     camera: &Camera,
     image: &ImageSettings,
     pipeline: &Pipeline,
     tile: Tile,
-) -> (Vec<Vec<Vec3>>, RenderStats) {
+    scratch: &mut Scratch,
+) -> RenderStats {
     let pixels = (tile.w * tile.h) as usize;
     let background_layer = pipeline.terms.len();
-    let mut accum = vec![vec![Vec3::ZERO; pixels]; background_layer + 1];
-    let shadow_ctx = ShadowContext::new(ctx);
-    let mut world = hecs::World::new();
-    let mut stats = RenderStats::default();
-
-    let primary = camera_system(camera, image, tile);
-    stats.camera_rays = primary.len() as u64;
-    spawn_chunks(&mut world, primary, ctx.lights.len());
-    loop {
-        trace_system(&mut world, ctx);
-        visibility_system(&mut world, ctx, &shadow_ctx, pipeline);
-        background_system(&world, image.background, background_layer, &mut accum);
-        let mut next = Rays::default();
-        for (layer, named) in pipeline.terms.iter().enumerate() {
-            for (rays, hits, lights) in world.query::<(&Rays, &Hits, &LightSamples)>().iter() {
-                let mut out = TermOutput {
-                    layer: layer as u16,
-                    weight: named.weight,
-                    rays,
-                    accum: &mut accum,
-                    next: &mut next,
-                    max_depth: pipeline.max_depth,
-                };
-                named.term.run(ctx, Chunk { rays, hits, lights }, &mut out);
-            }
-        }
-        world.clear();
-        if next.is_empty() {
-            stats.shadow_rays = shadow_ctx.rays();
-            return (accum, stats);
-        }
-        stats.secondary_rays += next.len() as u64;
-        spawn_chunks(&mut world, next, ctx.lights.len());
+    for acc in &mut scratch.accum {
+        acc.clear();
+        acc.resize(pixels, Vec3::ZERO);
     }
+    let shadow_ctx = ShadowContext::new(ctx);
+    let mut stats = RenderStats::default();
+    let spp = image.samples.max(1);
+    let total = pixels * spp as usize;
+    for wave in (0..total).step_by(WAVE) {
+        camera_system(camera, image, tile, wave..(wave + WAVE).min(total), &mut scratch.next);
+        stats.camera_rays += scratch.next.len() as u64;
+        loop {
+            stats.peak_lanes = stats.peak_lanes.max(scratch.next.len() as u64);
+            scratch.spawn_chunks(ctx.lights.len());
+            let Scratch { world, next, accum, .. } = scratch;
+            trace_system(world, ctx);
+            visibility_system(world, ctx, &shadow_ctx, pipeline);
+            background_system(world, image.background, background_layer, accum);
+            for (layer, named) in pipeline.terms.iter().enumerate() {
+                for (rays, hits, lights) in world.query::<(&Rays, &Hits, &LightSamples)>().iter() {
+                    let mut out = TermOutput {
+                        layer: layer as u16,
+                        weight: named.weight,
+                        rays,
+                        accum,
+                        next,
+                        max_depth: pipeline.max_depth,
+                    };
+                    named.term.run(ctx, Chunk { rays, hits, lights }, &mut out);
+                }
+            }
+            scratch.recycle();
+            if scratch.next.is_empty() {
+                break;
+            }
+            stats.secondary_rays += scratch.next.len() as u64;
+        }
+    }
+    stats.shadow_rays = shadow_ctx.rays();
+    stats
 }
 
-/// Generation 0: one ray per pixel sample, weight `1 / samples`.
-fn camera_system(camera: &Camera, image: &ImageSettings, tile: Tile) -> Rays {
+/// Generation 0: the camera rays of the tile's pixel samples `range` (pixel-major, in row
+/// order), each of weight `1 / samples`.
+fn camera_system(camera: &Camera, image: &ImageSettings, tile: Tile, range: std::ops::Range<usize>, out: &mut Rays) {
     let spp = image.samples.max(1);
     let weight = Vec3::splat(1.0 / spp as f32);
-    let mut rays = Rays::with_capacity((tile.w * tile.h * spp) as usize);
-    for j in 0..tile.h {
-        for i in 0..tile.w {
-            for s in 0..spp {
-                let (ox, oy) = sample_offset(s, spp);
-                let (px, py) = ((tile.x0 + i) as f32 + ox, (tile.y0 + j) as f32 + oy);
-                let dir = camera.direction(px, py, image.width, image.height);
-                rays.push(camera.origin, NO_SKIP, dir, weight, j * tile.w + i, 0, CREDIT_OWN);
-            }
-        }
-    }
-    rays
-}
-
-/// Splits a generation's rays into chunk entities, each spawned with all its components.
-fn spawn_chunks(world: &mut hecs::World, mut rays: Rays, lights: usize) {
-    while !rays.is_empty() {
-        let rest = if rays.len() > CHUNK_LANES { split_off(&mut rays, CHUNK_LANES) } else { Rays::default() };
-        let n = rays.len();
-        world.spawn((rays, Hits::misses(n), LightSamples::dark(n, lights)));
-        rays = rest;
-    }
-}
-
-fn split_off(r: &mut Rays, at: usize) -> Rays {
-    Rays {
-        origin: r.origin.split_off(at),
-        skip: r.skip.split_off(at),
-        dir: r.dir.split_off(at),
-        weight: r.weight.split_off(at),
-        pixel: r.pixel.split_off(at),
-        depth: r.depth.split_off(at),
-        credit: r.credit.split_off(at),
+    for k in range {
+        let (pixel, s) = ((k / spp as usize) as u32, (k % spp as usize) as u32);
+        let (i, j) = (pixel % tile.w, pixel / tile.w);
+        let (ox, oy) = sample_offset(s, spp);
+        let (px, py) = ((tile.x0 + i) as f32 + ox, (tile.y0 + j) as f32 + oy);
+        let dir = camera.direction(px, py, image.width, image.height);
+        out.push(camera.origin, NO_SKIP, dir, weight, pixel, 0, CREDIT_OWN);
     }
 }
 
