@@ -120,7 +120,7 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
         // The geometry's own test, here, so the error has a place in the file.
         if lancer_shapes::invertible(&world_from_object).is_none() {
             let span = obj.scale.as_ref().map_or(o.span(), |s| s.span());
-            let msg = "this placement cannot be inverted in single precision (a scale too small or too large)";
+            let msg = "this placement (scale, rotate, translate) cannot be inverted in single precision";
             return Err(cx.err(span, LoadErrorKind::Syntax(msg.into())));
         }
         let transform = Transform { world_from_object };

@@ -23,4 +23,4 @@ pub use registry::{
 };
 pub use render::{RenderOptions, WAVE, render, render_prepared};
 pub use shadow::{ShadowContext, ShadowModel};
-pub use term::{Chunk, ShadeContext, Term, TermOutput, sum_lights};
+pub use term::{Chunk, ShadeContext, Term, TermOutput, mirror_direction, sum_lights};

@@ -14,7 +14,6 @@ pub struct ShadowContext<'a> {
     /// The scene.
     pub scene: &'a ShadeContext<'a>,
     rays: Cell<u64>,
-    transparent: std::cell::OnceCell<Vec<u32>>,
 }
 
 impl<'a> std::ops::Deref for ShadowContext<'a> {
@@ -27,26 +26,7 @@ impl<'a> std::ops::Deref for ShadowContext<'a> {
 impl<'a> ShadowContext<'a> {
     /// A context over `scene`, with no ray traced yet.
     pub fn new(scene: &'a ShadeContext<'a>) -> ShadowContext<'a> {
-        ShadowContext { scene, rays: Cell::new(0), transparent: std::cell::OnceCell::new() }
-    }
-
-    /// The objects whose material lets light through (`alpha > 0`), in index order.
-    pub fn transparent(&self) -> &[u32] {
-        self.transparent.get_or_init(|| {
-            (0..self.geometry.objects.len() as u32).filter(|&i| self.material_of(i).alpha > 0.0).collect()
-        })
-    }
-
-    /// The closest transparent object between `from` and the distance `dist` along `dir`. Not
-    /// counted as a shadow ray of its own: it continues one (see the `transmissive` model).
-    #[inline]
-    pub fn transparent_occluder(&self, from: Origin, dir: Vec3, dist: f32) -> Option<Hit> {
-        let list = self.transparent();
-        if list.len() <= 16 {
-            self.geometry.closest_hit_among(from, dir, 0.0, dist, list)
-        } else {
-            self.geometry.closest_hit_where(from, dir, 0.0, dist, |i| self.material_of(i).alpha > 0.0)
-        }
+        ShadowContext { scene, rays: Cell::new(0) }
     }
 
     /// The closest object between `from` and the distance `dist` along `dir`: a shadow ray,
@@ -61,14 +41,8 @@ impl<'a> ShadowContext<'a> {
     /// shadow ray that stops at the first occluder, counted in [`ShadowContext::rays`].
     #[inline]
     pub fn blocked(&self, at: &Hit, dir: Vec3, dist: f32) -> bool {
-        self.blocked_where(at, dir, dist, |_| true)
-    }
-
-    /// As [`ShadowContext::blocked`], by the objects for which `only` is true.
-    #[inline]
-    pub fn blocked_where(&self, at: &Hit, dir: Vec3, dist: f32, only: impl Fn(u32) -> bool) -> bool {
         self.rays.set(self.rays.get() + 1);
-        self.geometry.any_hit_where(self.geometry.spawn(at, dir), dir, dist, only)
+        self.geometry.any_hit(self.geometry.spawn(at, dir), dir, dist)
     }
 
     /// How many shadow rays were traced through this context.

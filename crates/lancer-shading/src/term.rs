@@ -164,6 +164,16 @@ pub(crate) fn facing(chunk: &Chunk<'_>, lane: usize) -> (Vec3, Vec3) {
     (chunk.hits.point[lane], chunk.hits.facing_normal(lane))
 }
 
+/// The mirror direction of the ray `u` at `hit`: `u − 2 (N·u) N` about the shading normal, or
+/// about the geometric normal where a smooth mesh's interpolated normal would send it below the
+/// actual surface (near a silhouette), so a reflected ray always leaves on the side it came from.
+#[inline]
+pub fn mirror_direction(hit: &lancer_shapes::Hit, u: Vec3) -> Vec3 {
+    let r = lancer_core::optics::reflect(u, hit.shading);
+    // The side the ray arrived on is where it must go back to.
+    if (r.dot(hit.normal) > 0.0) == (u.dot(hit.normal) < 0.0) { r } else { lancer_core::optics::reflect(u, hit.normal) }
+}
+
 /// `Σ f(N·w, w) · light` over the lights that reach the hit of `lane` (in front of the surface,
 /// not fully shadowed), with `n` the normal facing the ray: the loop every light-driven term
 /// needs.

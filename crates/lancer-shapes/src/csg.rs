@@ -154,7 +154,7 @@ impl Csg {
     /// The surface at a crossing of the tree found on the ray `o + t d` (tree space): the leaf
     /// that owns the boundary refines the point in its own space (see [`Shape::surface`]), and
     /// the normal stays the tree's (turned round where a difference removed the leaf).
-    pub fn surface(&self, o: Vec3, d: Vec3, hit: &crate::ShapeHit) -> crate::LocalSurface {
+    pub(crate) fn surface(&self, o: Vec3, d: Vec3, hit: &crate::ShapeHit) -> crate::LocalSurface {
         let leaf = hit.part as usize;
         let (CsgNode::Leaf { shape, node_from_leaf }, Some((leaf_from_node, _))) =
             (&self.nodes[leaf], self.inverse[leaf])

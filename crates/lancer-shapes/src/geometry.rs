@@ -74,7 +74,7 @@ impl Object {
 
     /// First crossing of the world ray `o + t d` with `tmin < t < tmax` (object-space details).
     #[inline]
-    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<ShapeHit> {
+    pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<ShapeHit> {
         let (oo, od) = self.to_object(o, d);
         self.shape.intersect(oo, od, tmin, tmax)
     }
@@ -233,56 +233,26 @@ impl Geometry {
     /// The closest hit of `o + t d` with `tmin < t < tmax`. The BVH build and traversal order are
     /// deterministic, so the same ray always gets the same hit.
     pub fn closest_hit(&self, from: Origin, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        self.closest_hit_where(from, d, tmin, tmax, |_| true)
-    }
-
-    /// As [`Geometry::closest_hit`], among the objects for which `only` is true.
-    pub fn closest_hit_where(
-        &self,
-        from: Origin,
-        d: Vec3,
-        tmin: f32,
-        tmax: f32,
-        only: impl Fn(u32) -> bool,
-    ) -> Option<Hit> {
         let (o, skip) = (from.point, from.skip);
         let mut best = None;
         let mut tmax = tmax;
         for &i in &self.unbounded {
-            if i != skip && only(i) {
+            if i != skip {
                 tmax = self.test(i, o, d, tmin, tmax, &mut best);
             }
         }
         self.bvh.traverse(o, d, tmax, |item, tmax| {
             let i = self.bounded[item as usize];
-            if i == skip || !only(i) { tmax } else { self.test(i, o, d, tmin, tmax, &mut best) }
+            if i == skip { tmax } else { self.test(i, o, d, tmin, tmax, &mut best) }
         });
         self.finish(o, d, best)
-    }
-
-    /// As [`Geometry::closest_hit`], among the listed objects only, tested one by one (for a
-    /// short list, cheaper than a traversal of the whole hierarchy).
-    pub fn closest_hit_among(&self, from: Origin, d: Vec3, tmin: f32, tmax: f32, among: &[u32]) -> Option<Hit> {
-        let mut best = None;
-        let mut tmax = tmax;
-        for &i in among {
-            if i != from.skip {
-                tmax = self.test(i, from.point, d, tmin, tmax, &mut best);
-            }
-        }
-        self.finish(from.point, d, best)
     }
 
     /// Whether any object (but `from.skip`) lies on the ray within `0 < t < tmax`: a shadow ray
     /// that may stop at the first occluder it finds.
     pub fn any_hit(&self, from: Origin, d: Vec3, tmax: f32) -> bool {
-        self.any_hit_where(from, d, tmax, |_| true)
-    }
-
-    /// As [`Geometry::any_hit`], among the objects for which `only` is true.
-    pub fn any_hit_where(&self, from: Origin, d: Vec3, tmax: f32, only: impl Fn(u32) -> bool) -> bool {
         let (o, skip) = (from.point, from.skip);
-        let blocks = |i: u32| i != skip && only(i) && self.objects[i as usize].occludes(o, d, tmax);
+        let blocks = |i: u32| i != skip && self.objects[i as usize].occludes(o, d, tmax);
         if self.unbounded.iter().any(|&i| blocks(i)) {
             return true;
         }
@@ -320,11 +290,18 @@ impl Geometry {
 
     /// Where a straight ray that meets the surface at `at` is past the object: the exit of a
     /// closed object it enters there; the surface itself for one it leaves, or for a surface
-    /// with no inside (a disk, an open mesh), which it crosses there. `None` when it never gets
-    /// out (a plane's half-space).
+    /// with no inside (a disk, an open mesh), which it crosses there. `None` only when it never
+    /// gets out (a plane's half-space). A bounded object whose exit cannot be found (thinner
+    /// than the ray's offset, or entered on an edge) is crossed where it is entered.
     pub fn past(&self, at: &Hit, dir: Vec3) -> Option<Hit> {
-        let shape = &self.objects[at.object as usize].shape;
-        if dir.dot(at.normal) < 0.0 && shape.is_closed() { self.exit(at, dir) } else { Some(*at) }
+        let object = &self.objects[at.object as usize];
+        if dir.dot(at.normal) > 0.0 || !object.shape.is_closed() {
+            return Some(*at);
+        }
+        match self.exit(at, dir) {
+            None if object.shape.bounds().is_some() => Some(*at),
+            exit => exit,
+        }
     }
 }
 

@@ -150,38 +150,78 @@ impl Mesh {
             })
             .collect();
         let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-        // Closed (watertight): every edge is used once in each direction by two triangles, so
-        // neighbours agree on which side is outside. Vertices at the same position count as one,
-        // so a texture seam (the same point with two sets of texture coordinates) does not open
-        // the mesh.
+        // Vertices at the same position count as one, so a texture seam (the same point with two
+        // sets of texture coordinates) does not open the mesh.
         let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
         let canonical: Vec<u32> = positions
             .iter()
             .enumerate()
             .map(|(i, p)| *weld.entry(p.to_array().map(f32::to_bits)).or_insert(i as u32))
             .collect();
+        let mut triangles = triangles;
+        let welded = |t: &[u32; 3]| t.map(|i| canonical[i as usize]);
+        let edges_of = |t: [u32; 3]| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])];
+        // Orient: walk each connected piece across shared edges, turning round a neighbour whose
+        // shared edge runs the same way (files often mix windings). A piece that cannot be
+        // oriented (a Möbius strip) keeps its triangles as they are.
+        let mut around: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+        for (k, t) in triangles.iter().enumerate() {
+            for (a, b) in edges_of(welded(t)) {
+                around.entry((a.min(b), a.max(b))).or_default().push(k as u32);
+            }
+        }
+        let mut piece = vec![u32::MAX; triangles.len()];
+        let mut pieces: Vec<Vec<u32>> = Vec::new();
+        for seed in 0..triangles.len() {
+            if piece[seed] != u32::MAX {
+                continue;
+            }
+            let id = pieces.len() as u32;
+            let mut members = vec![seed as u32];
+            piece[seed] = id;
+            let mut next = 0;
+            while next < members.len() {
+                let k = members[next] as usize;
+                next += 1;
+                for (a, b) in edges_of(welded(&triangles[k])) {
+                    for &u in &around[&(a.min(b), a.max(b))] {
+                        let u = u as usize;
+                        if piece[u] != u32::MAX {
+                            continue;
+                        }
+                        if edges_of(welded(&triangles[u])).contains(&(a, b)) {
+                            triangles[u].swap(1, 2);
+                        }
+                        piece[u] = id;
+                        members.push(u as u32);
+                    }
+                }
+            }
+            pieces.push(members);
+        }
+        // Closed (watertight): every edge is used once in each direction by two triangles.
         let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
         for t in &triangles {
-            let t = t.map(|i| canonical[i as usize]);
-            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-                *edges.entry((a, b)).or_insert(0) += 1;
+            for e in edges_of(welded(t)) {
+                *edges.entry(e).or_insert(0) += 1;
             }
         }
         let closed = edges.iter().all(|(&(a, b), &c)| c == 1 && edges.get(&(b, a)) == Some(&1));
-        // A closed mesh wound clockwise seen from outside encloses a negative volume: turn every
-        // triangle round so its normals point out.
-        let mut triangles = triangles;
+        // A closed piece wound clockwise seen from outside encloses a negative volume: turn its
+        // triangles round so its normals point out.
         if closed {
-            let volume: f64 = triangles
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
-                    a.dot(b.cross(c))
-                })
-                .sum();
-            if volume < 0.0 {
-                for t in &mut triangles {
-                    t.swap(1, 2);
+            for members in &pieces {
+                let volume: f64 = members
+                    .iter()
+                    .map(|&k| {
+                        let [a, b, c] = triangles[k as usize].map(|i| positions[i as usize].as_dvec3());
+                        a.dot(b.cross(c))
+                    })
+                    .sum();
+                if volume < 0.0 {
+                    for &k in members {
+                        triangles[k as usize].swap(1, 2);
+                    }
                 }
             }
         }
@@ -327,13 +367,33 @@ mod tests {
     }
 
     #[test]
-    fn regression_a_mesh_whose_neighbours_disagree_on_winding_is_not_closed() {
-        // Every edge of this octahedron is shared by two triangles, but one triangle is turned
-        // round: its edges run the same way as its neighbours', so inside and outside are not
-        // defined (before the fix, only the edge counts were checked).
+    fn regression_a_triangle_wound_against_its_neighbours_is_turned_round() {
+        // One triangle of this octahedron is wound the other way: its edges run the same way as
+        // its neighbours'. Before the fix only edge counts were checked, and that triangle's
+        // normal pointed inside. Now the winding is made consistent, so the mesh is closed and
+        // its normals all point out.
         let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
         let t = vec![[0, 4, 2], [4, 2, 1], [1, 2, 5], [5, 2, 0], [4, 3, 0], [1, 3, 4], [5, 3, 1], [0, 3, 5]];
-        assert!(!Mesh::new(p, Vec::new(), Vec::new(), t).unwrap().is_closed());
+        let m = Mesh::new(p, Vec::new(), Vec::new(), t).unwrap();
+        assert!(m.is_closed());
+        // The turned-round triangle (0, 4, 2) faces +x +y +z: hit it from outside there.
+        let d = -Vec3::ONE.normalize();
+        let h = m.intersect(Vec3::splat(0.3) - 5.0 * d, d, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(h.part, 0);
+        assert!(m.surface(h.part, h.bary).normal.dot(d) < 0.0, "the normal faces the ray from outside");
+    }
+
+    #[test]
+    fn two_triangles_sharing_an_edge_the_same_way_are_an_open_sheet() {
+        // A square of two triangles, the second wound against the first: oriented, still open.
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        let m = Mesh::new(p, Vec::new(), Vec::new(), vec![[0, 1, 2], [0, 3, 2]]).unwrap();
+        assert!(!m.is_closed());
+        let n = |x: f32, y: f32| {
+            let h = m.intersect(Vec3::new(x, y, -1.0), Vec3::Z, 0.0, f32::INFINITY).unwrap();
+            m.surface(h.part, h.bary).normal
+        };
+        assert_eq!(n(0.7, 0.2), n(0.2, 0.7), "both halves face the same way");
     }
 
     #[test]

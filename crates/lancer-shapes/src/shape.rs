@@ -301,7 +301,8 @@ impl Shape {
             }
             _ => {
                 let (_, (t1, n1)) = self.span(o, d)?;
-                (t1 > 0.0).then_some(ShapeHit::of((t1, n1)))
+                // `>=`: a start snapped onto an edge may leave through the next face at 0.
+                (t1 >= 0.0).then_some(ShapeHit::of((t1, n1)))
             }
         }
     }
@@ -320,23 +321,32 @@ impl Shape {
             let error = 2.0 * EPS * point.abs().max_element();
             LocalSurface { point, error, normal, shading: normal, uv: glam::Vec2::ZERO }
         };
+        // A point snapped onto an axis-aligned plane (a face, a cap, the plane or the disk) is
+        // exactly on it: no error along the normal, whatever its other coordinates.
+        let snapped = |point: glam::DVec3, normal: Vec3| LocalSurface {
+            point: point.as_vec3(),
+            error: 0.0,
+            normal,
+            shading: normal,
+            uv: glam::Vec2::ZERO,
+        };
         match self {
             Shape::Sphere => {
                 let q = p.normalize_or(glam::DVec3::Y);
                 plain(q, q.as_vec3().normalize_or(Vec3::Y))
             }
-            Shape::Plane | Shape::Disk => plain(glam::DVec3::new(p.x, 0.0, p.z), Vec3::Y),
+            Shape::Plane | Shape::Disk => snapped(glam::DVec3::new(p.x, 0.0, p.z), Vec3::Y),
             Shape::Cube => {
                 let axis = hit.normal.abs().max_position();
                 let mut q = p.clamp(glam::DVec3::splat(-1.0), glam::DVec3::ONE);
                 q[axis] = hit.normal[axis].signum() as f64;
-                plain(q, hit.normal)
+                snapped(q, hit.normal)
             }
             Shape::Cylinder => {
                 if hit.normal.y != 0.0 {
                     let mut q = p;
                     q.y = hit.normal.y.signum() as f64;
-                    return plain(q, hit.normal);
+                    return snapped(q, hit.normal);
                 }
                 let rho = (p.x * p.x + p.z * p.z).sqrt();
                 if rho == 0.0 {
@@ -347,7 +357,7 @@ impl Shape {
             }
             Shape::Cone => {
                 if hit.normal == -Vec3::Y {
-                    return plain(glam::DVec3::new(p.x, -1.0, p.z), hit.normal);
+                    return snapped(glam::DVec3::new(p.x, -1.0, p.z), hit.normal);
                 }
                 // f = x² + z² − (1 − y)²/4 = 0; two Newton steps along the gradient.
                 let mut q = p;
@@ -360,6 +370,8 @@ impl Shape {
                     }
                     q -= f / gg * g;
                 }
+                // The lower nappe only (Newton may step past the apex onto the upper one).
+                q.y = q.y.clamp(-1.0, 1.0);
                 let n = Vec3::new(2.0 * q.x as f32, (1.0 - q.y as f32) / 2.0, 2.0 * q.z as f32);
                 plain(q, n.normalize_or(hit.normal))
             }

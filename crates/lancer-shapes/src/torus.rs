@@ -51,13 +51,7 @@ pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
     let a1 = 4.0 * h * g - 8.0 * horiz_pd;
     let a0 = g * g - 4.0 * horiz_pp;
     let mut ss = quartic_roots(a3, a2, a1, a0);
-    // A grazing double root may come out once: pair it with itself so entering and leaving
-    // still alternate. It is the root where the quartic is flattest.
-    if ss.len() % 2 == 1 {
-        let slope = |x: f64| (((4.0 * x + 3.0 * a3) * x + 2.0 * a2) * x + a1).abs();
-        let i = pair_odd_root(&ss, slope);
-        ss.insert(i, ss[i]);
-    }
+    pair_up(&mut ss, |x: f64| (((4.0 * x + 3.0 * a3) * x + 2.0 * a2) * x + a1).abs());
     ss.into_iter()
         .map(|s| {
             let t = s + shift;
@@ -66,10 +60,13 @@ pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
         .collect()
 }
 
-/// Which of an odd number of roots is the double root that came out once: the one where the
-/// polynomial's slope is smallest.
-fn pair_odd_root(roots: &[f64], slope: impl Fn(f64) -> f64) -> usize {
-    (0..roots.len()).min_by(|&i, &j| slope(roots[i]).total_cmp(&slope(roots[j]))).unwrap_or(0)
+/// A grazing double root may come out of the solver once: with an odd number of roots, the one
+/// where the polynomial's `slope` is smallest is doubled, so entering and leaving still alternate.
+fn pair_up(roots: &mut Vec<f64>, slope: impl Fn(f64) -> f64) {
+    if roots.len() % 2 == 1 {
+        let i = (0..roots.len()).min_by(|&i, &j| slope(roots[i]).total_cmp(&slope(roots[j]))).unwrap_or(0);
+        roots.insert(i, roots[i]);
+    }
 }
 
 /// The first crossing of the torus surface by `o + t d` with `tmin < t < tmax`.
@@ -101,9 +98,12 @@ mod tests {
         // Roots 0, 1 (a double root that came out once: slope 0) and 2: the repair keeps all
         // three and doubles the middle one (before the fix it removed two roots).
         let mut roots = vec![0.0, 1.0, 2.0];
-        let i = pair_odd_root(&roots, |x| (x - 1.0).abs());
-        roots.insert(i, roots[i]);
+        pair_up(&mut roots, |x| (x - 1.0).abs());
         assert_eq!(roots, [0.0, 1.0, 1.0, 2.0]);
+        // An even count is left alone.
+        let mut even = vec![0.0, 2.0];
+        pair_up(&mut even, |x| (x - 1.0).abs());
+        assert_eq!(even, [0.0, 2.0]);
     }
 
     #[test]

@@ -52,12 +52,6 @@ impl ShadowModel for Transmissive {
 /// same exit query as the refraction path); a surface with no inside (a disk, an open mesh)
 /// counts at each crossing, and the ray goes on beyond it.
 pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32, tint: bool) -> Vec3 {
-    // An opaque object anywhere on the way blocks the light whatever else is crossed (the
-    // product does not depend on the order): one any-hit query over the opaque objects settles
-    // most shadow rays, and only light that gets past them walks the transparent ones.
-    if ctx.blocked_where(at, dir, dist, |i| ctx.material_of(i).alpha <= 0.0) {
-        return Vec3::ZERO;
-    }
     let mut light = Vec3::ONE;
     let mut surface = *at;
     for _ in 0..MAX_CROSSINGS {
@@ -66,10 +60,13 @@ pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32
         if left <= 0.0 {
             return light;
         }
-        let Some(hit) = ctx.transparent_occluder(from, dir, left) else {
+        let Some(hit) = ctx.occluder(from, dir, left) else {
             return light;
         };
         let m = ctx.material_of(hit.object);
+        if m.alpha <= 0.0 {
+            return Vec3::ZERO;
+        }
         light *= if tint { m.alpha * ctx.color_at(&hit) } else { Vec3::splat(m.alpha) };
         match ctx.geometry.past(&hit, dir) {
             Some(past) => surface = past,

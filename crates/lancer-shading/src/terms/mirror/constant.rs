@@ -12,9 +12,7 @@
 //! ```
 
 use glam::Vec3;
-use lancer_core::optics::reflect;
 
-use crate::term::facing;
 use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `mirror`, variant `constant`.
@@ -39,9 +37,9 @@ impl Term for Mirror {
             if m.spec <= 0.0 || !out.can_spawn(lane) {
                 continue;
             }
-            let (_, n) = facing(&chunk, lane);
-            let u_r = reflect(chunk.rays.dir[lane], n);
-            let from = ctx.geometry.spawn(&ctx.hit(chunk.hits, lane), u_r);
+            let hit = ctx.hit(chunk.hits, lane);
+            let u_r = crate::mirror_direction(&hit, chunk.rays.dir[lane]);
+            let from = ctx.geometry.spawn(&hit, u_r);
             out.spawn(lane, from, u_r, Vec3::splat(m.spec));
         }
     }

@@ -12,7 +12,7 @@
 //! ```
 
 use glam::Vec3;
-use lancer_core::optics::{f0_from_index, reflect, schlick};
+use lancer_core::optics::{f0_from_index, schlick};
 
 use crate::term::facing;
 use crate::{Chunk, ParamSpec, Params, ShadeContext, Term, TermOutput, TermSpec};
@@ -51,8 +51,9 @@ impl Term for Schlick {
             let (_, n) = facing(&chunk, lane);
             let u = chunk.rays.dir[lane];
             let f = schlick(n.dot(u), self.f0.unwrap_or_else(|| f0_from_index(m.n)));
-            let u_r = reflect(u, n);
-            out.spawn(lane, ctx.geometry.spawn(&ctx.hit(chunk.hits, lane), u_r), u_r, Vec3::splat(f));
+            let hit = ctx.hit(chunk.hits, lane);
+            let u_r = crate::mirror_direction(&hit, u);
+            out.spawn(lane, ctx.geometry.spawn(&hit, u_r), u_r, Vec3::splat(f));
         }
     }
 }

@@ -16,7 +16,7 @@
 //! ```
 
 use glam::Vec3;
-use lancer_core::optics::{fresnel_dielectric, reflect};
+use lancer_core::optics::fresnel_dielectric;
 
 use super::passage;
 use crate::term::facing;
@@ -62,7 +62,7 @@ impl Term for Fresnel {
             let u = chunk.rays.dir[lane];
             let (r_in, t_in) = split(n_facing.dot(u), m.n, hit.front);
             if hit.front && r_in > 0.0 {
-                let u_r = reflect(u, n_facing);
+                let u_r = crate::mirror_direction(&hit, u);
                 out.spawn(lane, ctx.geometry.spawn(&hit, u_r), u_r, Vec3::splat(m.alpha * r_in));
             }
             let Some(t) = passage(ctx, &hit, u, m.n) else { continue };

@@ -41,7 +41,7 @@ pub struct Passage {
 pub fn passage(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Option<Passage> {
     let mut length = 0.0;
     let (mut at, mut dir) = if hit.front {
-        let u_t = bend(u, hit, 1.0 / n, false)?;
+        let (u_t, _) = bend(u, hit, 1.0 / n, false)?;
         let exit = ctx.geometry.exit(hit, u_t)?;
         length += (exit.point - hit.point).length();
         (exit, u_t)
@@ -50,9 +50,9 @@ pub fn passage(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Option<Pas
     };
     for _ in 0..=ctx.max_depth {
         match bend(dir, &at, n, true) {
-            Some(v_t) => {
+            Some((v_t, normal)) => {
                 let from = ctx.geometry.spawn(&at, v_t);
-                let exit_cos = at.shading.dot(dir).clamp(0.0, 1.0);
+                let exit_cos = normal.dot(dir).abs().min(1.0);
                 return Some(Passage { from, dir: v_t, length, exit_cos });
             }
             None => {
@@ -71,12 +71,15 @@ pub fn passage(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Option<Pas
 
 /// `VctTransmis` through the surface of `at` with the index ratio `delta`, about the shading
 /// normal when that sends the ray to the right side of the geometric surface (out when
-/// `leaving`, in otherwise), else about the geometric normal. `None` on total internal reflection.
-fn bend(u: Vec3, at: &Hit, delta: f32, leaving: bool) -> Option<Vec3> {
+/// `leaving`, in otherwise), else about the geometric normal: the direction and the normal used.
+/// `None` on total internal reflection.
+fn bend(u: Vec3, at: &Hit, delta: f32, leaving: bool) -> Option<(Vec3, Vec3)> {
     let right_side = |v: Vec3| (v.dot(at.normal) > 0.0) == leaving;
     let t = vct_transmis(u, if leaving { at.shading } else { -at.shading }, delta)?;
     if right_side(t) {
-        return Some(t);
+        return Some((t, at.shading));
     }
-    vct_transmis(u, if leaving { at.normal } else { -at.normal }, delta).filter(|&t| right_side(t))
+    vct_transmis(u, if leaving { at.normal } else { -at.normal }, delta)
+        .filter(|&t| right_side(t))
+        .map(|t| (t, at.normal))
 }
