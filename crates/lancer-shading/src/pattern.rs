@@ -20,7 +20,9 @@ pub fn surface_color(
             // A hair of offset keeps points on a cell boundary (a floor at y = 0, whose hit points
             // scatter around 0 by rounding) on one side of it.
             let c = (local / scale + Vec3::splat(1e-4)).floor();
-            if (c.x + c.y + c.z).rem_euclid(2.0) < 0.5 { material.color } else { other }
+            // The parity of the cell: integer arithmetic (wrapping: far cells keep alternating).
+            let parity = (c.x as i64).wrapping_add(c.y as i64).wrapping_add(c.z as i64) & 1;
+            if parity == 0 { material.color } else { other }
         }
         Pattern::Image { texture, scale } => {
             let uv = if matches!(shape, Shape::Mesh(_)) { mesh_uv } else { shape.uv(local, scale) };

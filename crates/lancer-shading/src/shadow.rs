@@ -29,12 +29,13 @@ impl<'a> ShadowContext<'a> {
         ShadowContext { scene, rays: Cell::new(0) }
     }
 
-    /// The closest object between `from` and the distance `dist` along `dir`: a shadow ray,
-    /// counted in [`ShadowContext::rays`].
+    /// The closest object between `from` and the distance `dist` along `dir`, and where the ray
+    /// crosses it (`Object::hit` describes the surface there when needed): a shadow ray, counted
+    /// in [`ShadowContext::rays`].
     #[inline]
-    pub fn occluder(&self, from: Origin, dir: Vec3, dist: f32) -> Option<Hit> {
+    pub fn occluder(&self, from: Origin, dir: Vec3, dist: f32) -> Option<(u32, lancer_shapes::ShapeHit)> {
         self.rays.set(self.rays.get() + 1);
-        self.geometry.closest_hit(from, dir, 0.0, dist)
+        self.geometry.closest(from, dir, 0.0, dist)
     }
 
     /// Whether anything lies between the surface at `at` and the distance `dist` along `dir`: a

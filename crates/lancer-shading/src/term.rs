@@ -43,7 +43,12 @@ impl ShadeContext<'_> {
     /// `Col_Ω` at the hit of `lane`.
     #[inline]
     pub fn color(&self, hits: &Hits, lane: usize) -> Vec3 {
-        self.color_at(&self.hit(hits, lane))
+        let object = &self.geometry.objects[hits.object[lane] as usize];
+        let material = &self.materials[object.material as usize];
+        match material.pattern {
+            lancer_core::Pattern::Solid => material.color,
+            _ => crate::surface_color(material, &object.shape, hits.local[lane], hits.uv[lane], self.textures),
+        }
     }
 
     /// The hit of `lane` (which must have one) as the geometry describes hits: what

@@ -46,6 +46,20 @@ pub struct Object {
     pub world_from_object_normal: Mat3A,
     /// Index into the prepared material table.
     pub material: u32,
+    /// A world-space form of the shape, when it has one that needs no transform per ray.
+    fast: Fast,
+}
+
+/// World-space forms of simple placements: the intersection test skips the transform into
+/// object space (the hit is still refined there, once, by [`Object::hit`]).
+#[derive(Clone, Copy, Debug)]
+enum Fast {
+    /// Any other shape or placement.
+    None,
+    /// A sphere scaled the same on every axis: centre and squared radius.
+    Sphere { centre: Vec3, radius2: f32 },
+    /// A plane: unit normal `n` and offset `n · p` of its points.
+    Plane { normal: Vec3, offset: f32 },
 }
 
 impl Object {
@@ -53,13 +67,25 @@ impl Object {
     /// [`invertible`].
     pub fn new(shape: Shape, world_from_object: Affine3A, material: u32) -> Option<Object> {
         let object_from_world = invertible(&world_from_object)?;
-        Some(Object {
-            shape,
-            world_from_object,
-            object_from_world,
-            world_from_object_normal: object_from_world.matrix3.transpose(),
-            material,
-        })
+        let world_from_object_normal = object_from_world.matrix3.transpose();
+        let m = world_from_object.matrix3;
+        let centre = Vec3::from(world_from_object.translation);
+        let fast = match shape {
+            Shape::Sphere => {
+                let (lx, ly, lz) = (m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
+                let uniform = (lx - ly).abs() <= 1e-6 * lx && (lx - lz).abs() <= 1e-6 * lx;
+                let orthogonal = [m.x_axis.dot(m.y_axis), m.y_axis.dot(m.z_axis), m.z_axis.dot(m.x_axis)]
+                    .iter()
+                    .all(|c| c.abs() <= 1e-6 * lx * lx);
+                if uniform && orthogonal { Fast::Sphere { centre, radius2: lx * lx } } else { Fast::None }
+            }
+            Shape::Plane => {
+                let normal = (world_from_object_normal * Vec3::Y).normalize_or(Vec3::Y);
+                Fast::Plane { normal, offset: normal.dot(centre) }
+            }
+            _ => Fast::None,
+        };
+        Some(Object { shape, world_from_object, object_from_world, world_from_object_normal, material, fast })
     }
 
     fn world_normal(&self, n_obj: Vec3) -> Vec3 {
@@ -75,15 +101,38 @@ impl Object {
     /// First crossing of the world ray `o + t d` with `tmin < t < tmax` (object-space details).
     #[inline]
     pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<ShapeHit> {
-        let (oo, od) = self.to_object(o, d);
-        self.shape.intersect(oo, od, tmin, tmax)
+        let ok = |t: f32| t > tmin && t < tmax;
+        match self.fast {
+            Fast::Sphere { centre, radius2 } => {
+                let (t0, t1) = crate::shape::sphere_roots_world(o - centre, d, radius2)?;
+                let t = if ok(t0) { t0 } else if ok(t1) { t1 } else { return None };
+                Some(ShapeHit { t, normal: Vec3::ZERO, part: 0, bary: Vec2::ZERO })
+            }
+            Fast::Plane { normal, offset } => {
+                let along = normal.dot(d);
+                if along == 0.0 {
+                    return None;
+                }
+                let t = (offset - normal.dot(o)) / along;
+                ok(t).then_some(ShapeHit { t, normal: Vec3::Y, part: 0, bary: Vec2::ZERO })
+            }
+            Fast::None => {
+                let (oo, od) = self.to_object(o, d);
+                self.shape.intersect(oo, od, tmin, tmax)
+            }
+        }
     }
 
     /// Whether the object lies on the world ray within `0 < t < tmax` (any hit will do).
     #[inline]
     pub fn occludes(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
-        let (oo, od) = self.to_object(o, d);
-        self.shape.occludes(oo, od, tmax)
+        match self.fast {
+            Fast::None => {
+                let (oo, od) = self.to_object(o, d);
+                self.shape.occludes(oo, od, tmax)
+            }
+            _ => self.intersect(o, d, 0.0, tmax).is_some(),
+        }
     }
 
     /// The world-space hit record of the crossing `c` of the world ray `o + t d`.
@@ -226,13 +275,16 @@ impl Geometry {
         }
     }
 
-    fn finish(&self, o: Vec3, d: Vec3, best: Option<(u32, ShapeHit)>) -> Option<Hit> {
-        best.map(|(i, c)| self.objects[i as usize].hit(i, o, d, &c))
-    }
-
     /// The closest hit of `o + t d` with `tmin < t < tmax`. The BVH build and traversal order are
     /// deterministic, so the same ray always gets the same hit.
     pub fn closest_hit(&self, from: Origin, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        self.closest(from, d, tmin, tmax).map(|(i, c)| self.objects[i as usize].hit(i, from.point, d, &c))
+    }
+
+    /// The closest crossing of `o + t d` with `tmin < t < tmax` and its object, without the
+    /// surface description [`Object::hit`] makes of it: for a caller that may not need it (a
+    /// shadow ray stopped by an opaque object).
+    pub fn closest(&self, from: Origin, d: Vec3, tmin: f32, tmax: f32) -> Option<(u32, ShapeHit)> {
         let (o, skip) = (from.point, from.skip);
         let mut best = None;
         let mut tmax = tmax;
@@ -245,7 +297,7 @@ impl Geometry {
             let i = self.bounded[item as usize];
             if i == skip { tmax } else { self.test(i, o, d, tmin, tmax, &mut best) }
         });
-        self.finish(o, d, best)
+        best
     }
 
     /// Whether any object (but `from.skip`) lies on the ray within `0 < t < tmax`: a shadow ray
@@ -274,7 +326,7 @@ impl Geometry {
         for i in (0..self.objects.len() as u32).filter(|&i| i != from.skip) {
             tmax = self.test(i, from.point, d, tmin, tmax, &mut best);
         }
-        self.finish(from.point, d, best)
+        best.map(|(i, c): (u32, ShapeHit)| self.objects[i as usize].hit(i, from.point, d, &c))
     }
 
     /// Where a ray that goes into the object at `at` in direction `dir` leaves it again (meeting

@@ -1,8 +1,47 @@
 //! Real roots of polynomials up to degree four, in f64, polished by Newton's method: the torus
 //! needs a quartic solver that stays accurate at grazing angles (no speckles).
 
+/// Up to four real roots, kept on the stack (the torus test runs for every ray near a torus).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Roots {
+    v: [f64; 4],
+    n: usize,
+}
+
+impl Roots {
+    /// Appends a root (at most four are kept).
+    pub fn push(&mut self, x: f64) {
+        if self.n < 4 {
+            self.v[self.n] = x;
+            self.n += 1;
+        }
+    }
+
+    /// Inserts `x` at `i` (at most four are kept).
+    pub fn insert(&mut self, i: usize, x: f64) {
+        if self.n < 4 {
+            self.v.copy_within(i..self.n, i + 1);
+            self.v[i] = x;
+            self.n += 1;
+        }
+    }
+}
+
+impl std::ops::Deref for Roots {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.v[..self.n]
+    }
+}
+
+impl std::ops::DerefMut for Roots {
+    fn deref_mut(&mut self) -> &mut [f64] {
+        &mut self.v[..self.n]
+    }
+}
+
 /// Real roots of `x² + b x + c = 0`, by the cancellation-free formula.
-fn quadratic(b: f64, c: f64, out: &mut Vec<f64>) {
+fn quadratic(b: f64, c: f64, out: &mut Roots) {
     let disc = b * b - 4.0 * c;
     if disc < 0.0 {
         // A double root pushed below zero by rounding is still a (grazing) root.
@@ -54,19 +93,19 @@ fn largest_cubic_root(a: f64, b: f64, c: f64) -> f64 {
 
 /// Real roots of the monic quartic `x⁴ + a x³ + b x² + c x + d = 0`, ascending, each polished
 /// by Newton's method on the quartic itself. Double roots may appear once or twice.
-pub fn quartic_roots(a: f64, b: f64, c: f64, d: f64) -> Vec<f64> {
+pub fn quartic_roots(a: f64, b: f64, c: f64, d: f64) -> Roots {
     // Depressed: x = y − a/4, y⁴ + p y² + q y + r = 0.
     let a2 = a * a;
     let p = b - 3.0 * a2 / 8.0;
     let q = c - a * b / 2.0 + a2 * a / 8.0;
     let r = d - a * c / 4.0 + a2 * b / 16.0 - 3.0 * a2 * a2 / 256.0;
-    let mut ys = Vec::with_capacity(4);
+    let mut ys = Roots::default();
     let scale = p.abs().max(r.abs().sqrt()).max(1e-300);
     if q.abs() <= 1e-12 * scale * scale.sqrt() {
         // Biquadratic: y² = z with z² + p z + r = 0.
-        let mut zs = Vec::with_capacity(2);
+        let mut zs = Roots::default();
         quadratic(p, r, &mut zs);
-        for z in zs {
+        for &z in zs.iter() {
             if z >= 0.0 {
                 let s = z.sqrt();
                 ys.push(s);
@@ -81,9 +120,9 @@ pub fn quartic_roots(a: f64, b: f64, c: f64, d: f64) -> Vec<f64> {
         quadratic(s, p / 2.0 + m - q / (2.0 * s), &mut ys);
         quadratic(-s, p / 2.0 + m + q / (2.0 * s), &mut ys);
     }
-    let mut xs: Vec<f64> = ys
-        .into_iter()
-        .map(|y| {
+    let mut xs = Roots::default();
+    for &y in ys.iter() {
+        let x = {
             let mut x = y - a / 4.0;
             for _ in 0..4 {
                 let f = (((x + a) * x + b) * x + c) * x + d;
@@ -98,9 +137,11 @@ pub fn quartic_roots(a: f64, b: f64, c: f64, d: f64) -> Vec<f64> {
                 }
             }
             x
-        })
-        .filter(|x| x.is_finite())
-        .collect();
+        };
+        if x.is_finite() {
+            xs.push(x);
+        }
+    }
     xs.sort_by(f64::total_cmp);
     xs
 }

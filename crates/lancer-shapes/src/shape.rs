@@ -252,9 +252,15 @@ impl Shape {
                 let p = o + t * d;
                 (ok(t) && p.x * p.x + p.z * p.z <= 1.0).then_some(ShapeHit::of((t, Vec3::Y)))
             }
-            Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, tmin, tmax).map(ShapeHit::of),
+            // The normal comes from `surface`, for the hit that wins.
+            Shape::Torus { minor } => crate::torus::first_t(*minor, o, d, tmin, tmax).map(|t| ShapeHit::of((t, Vec3::ZERO))),
             Shape::Csg(csg) => first_boundary(&csg.spans(o, d), tmin, tmax),
             Shape::Mesh(m) => m.intersect(o, d, tmin, tmax),
+            Shape::Sphere => {
+                let (t0, t1) = sphere_roots(o, d)?;
+                let t = if ok(t0) { t0 } else if ok(t1) { t1 } else { return None };
+                Some(ShapeHit::of((t, Vec3::ZERO)))
+            }
             _ => {
                 let ((t0, n0), (t1, n1)) = self.span(o, d)?;
                 if ok(t0) {
@@ -291,7 +297,9 @@ impl Shape {
                 (t > 0.0).then_some(ShapeHit::of((t, Vec3::Y)))
             }
             Shape::Disk => None,
-            Shape::Torus { minor } => crate::torus::first_hit(*minor, o, d, 0.0, f32::INFINITY).map(ShapeHit::of),
+            Shape::Torus { minor } => {
+                crate::torus::first_t(*minor, o, d, 0.0, f32::INFINITY).map(|t| ShapeHit::of((t, Vec3::ZERO)))
+            }
             Shape::Csg(csg) => first_boundary(&csg.spans(o, d), 0.0, f32::INFINITY),
             Shape::Mesh(m) => {
                 if !m.is_closed() {
@@ -378,7 +386,7 @@ impl Shape {
             &Shape::Torus { minor } => {
                 let rho = (p.x * p.x + p.z * p.z).sqrt();
                 if rho == 0.0 {
-                    return plain(p, hit.normal);
+                    return plain(p, crate::torus::normal(p.as_vec3()));
                 }
                 // The nearest point of the tube: from the centre circle towards `p`, at `minor`.
                 let c = glam::DVec3::new(p.x / rho, 0.0, p.z / rho);
@@ -537,6 +545,20 @@ fn sphere_roots(o: Vec3, d: Vec3) -> Option<(f32, f32)> {
     let q = o - (b / a) * d;
     let disc = a * (1.0 - q.dot(q));
     half_quadratic(a, b, o.dot(o) - 1.0, disc)
+}
+
+/// Both roots of `|oc + t d|² = r²` (a sphere of squared radius `radius2` whose centre is at
+/// `−oc` from the origin), ascending, by the same cancellation-free form as [`sphere_roots`].
+#[inline]
+pub(crate) fn sphere_roots_world(oc: Vec3, d: Vec3, radius2: f32) -> Option<(f32, f32)> {
+    let a = d.dot(d);
+    if a == 0.0 {
+        return None;
+    }
+    let b = oc.dot(d);
+    let q = oc - (b / a) * d;
+    let disc = a * (radius2 - q.dot(q));
+    half_quadratic(a, b, oc.dot(oc) - radius2, disc)
 }
 
 /// Entry and exit of the line through the box `[-1, 1]^3`, each with its face's outward normal.

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use crate::quartic::quartic_roots;
+use crate::quartic::{Roots, quartic_roots};
 
 /// The outward unit normal of the torus at a point on it.
 pub fn normal(p: Vec3) -> Vec3 {
@@ -19,12 +19,22 @@ pub fn normal(p: Vec3) -> Vec3 {
 /// Every crossing of the torus surface by the line `o + t d`, ascending, with outward normals:
 /// an even number (0, 2 or 4), entering and leaving in turn.
 pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
+    let (ts, n) = crossings(minor, o, d, f32::NEG_INFINITY, f32::INFINITY);
+    ts[..n].iter().map(|&t| (t, normal(o + t * d))).collect()
+}
+
+/// The distances of every crossing of the torus surface by the line `o + t d`, ascending: an
+/// even number (0, 2 or 4), entering and leaving in turn. No allocation, no normals. When the
+/// part of the line that can meet the torus lies outside `(tmin, tmax)`, or misses the slab
+/// `|y| ≤ minor` the torus lies in, the quartic is not solved and there are none.
+pub fn crossings(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> ([f32; 4], usize) {
+    let mut out = [0.0f32; 4];
     // The direction is made unit in f64: normalised in f32 it is unit only to 1e-7, and the
     // bounding-sphere step below would lose |o|² · 1e-7 (pinholes from far away).
     let (od, dd) = (o.as_dvec3(), d.as_dvec3());
     let len = dd.length();
     if len == 0.0 || !len.is_finite() {
-        return Vec::new();
+        return (out, 0);
     }
     let dd = dd / len;
     let r = minor as f64;
@@ -36,10 +46,27 @@ pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
     let q = od - b * dd;
     let disc = bound * bound - q.dot(q);
     if disc < 0.0 {
-        return Vec::new();
+        return (out, 0);
     }
     let shift = -b - disc.sqrt();
+    let chord = 2.0 * disc.sqrt();
+    // The bounding sphere's chord, in the caller's units of t, against the range asked for.
+    let (t_in, t_out) = (shift / len, (shift + chord) / len);
+    if t_out <= tmin as f64 || t_in >= tmax as f64 {
+        return (out, 0);
+    }
     let p = od + shift * dd;
+    // The torus lies in the slab |y| ≤ r: the chord must cross it.
+    if dd.y == 0.0 {
+        if p.y.abs() > r {
+            return (out, 0);
+        }
+    } else {
+        let (s0, s1) = ((-r - p.y) / dd.y, (r - p.y) / dd.y);
+        if s0.max(s1) < 0.0 || s0.min(s1) > chord {
+            return (out, 0);
+        }
+    }
     // |p + s d|² + 1 − r² squared minus 4 (x² + z²), with |d| = 1.
     let g = p.dot(p) + 1.0 - r * r;
     let h = p.dot(dd);
@@ -52,26 +79,33 @@ pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
     let a0 = g * g - 4.0 * horiz_pp;
     let mut ss = quartic_roots(a3, a2, a1, a0);
     pair_up(&mut ss, |x: f64| (((4.0 * x + 3.0 * a3) * x + 2.0 * a2) * x + a1).abs());
-    ss.into_iter()
-        .map(|s| {
-            let t = s + shift;
-            ((t / len) as f32, normal((od + t * dd).as_vec3()))
-        })
-        .collect()
+    for (slot, s) in out.iter_mut().zip(ss.iter()) {
+        *slot = ((s + shift) / len) as f32;
+    }
+    (out, ss.len())
 }
 
 /// A grazing double root may come out of the solver once: with an odd number of roots, the one
 /// where the polynomial's `slope` is smallest is doubled, so entering and leaving still alternate.
-fn pair_up(roots: &mut Vec<f64>, slope: impl Fn(f64) -> f64) {
+fn pair_up(roots: &mut Roots, slope: impl Fn(f64) -> f64) {
     if roots.len() % 2 == 1 {
         let i = (0..roots.len()).min_by(|&i, &j| slope(roots[i]).total_cmp(&slope(roots[j]))).unwrap_or(0);
         roots.insert(i, roots[i]);
     }
 }
 
-/// The first crossing of the torus surface by `o + t d` with `tmin < t < tmax`.
-pub fn first_hit(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
-    roots(minor, o, d).into_iter().find(|&(t, _)| t > tmin && t < tmax)
+/// The first crossing of the torus surface by `o + t d` with `tmin < t < tmax`, and the
+/// outward normal there.
+#[cfg(test)]
+fn first_hit(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+    first_t(minor, o, d, tmin, tmax).map(|t| (t, normal(o + t * d)))
+}
+
+/// The distance of the first crossing of the torus surface by `o + t d` with `tmin < t < tmax`.
+#[inline]
+pub fn first_t(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+    let (ts, n) = crossings(minor, o, d, tmin, tmax);
+    ts[..n].iter().copied().find(|&t| t > tmin && t < tmax)
 }
 
 #[cfg(test)]
@@ -97,13 +131,15 @@ mod tests {
     fn regression_an_odd_root_count_is_repaired_by_doubling_the_grazing_root() {
         // Roots 0, 1 (a double root that came out once: slope 0) and 2: the repair keeps all
         // three and doubles the middle one (before the fix it removed two roots).
-        let mut roots = vec![0.0, 1.0, 2.0];
+        let mut roots = Roots::default();
+        [0.0, 1.0, 2.0].into_iter().for_each(|x| roots.push(x));
         pair_up(&mut roots, |x| (x - 1.0).abs());
-        assert_eq!(roots, [0.0, 1.0, 1.0, 2.0]);
+        assert_eq!(&roots[..], [0.0, 1.0, 1.0, 2.0]);
         // An even count is left alone.
-        let mut even = vec![0.0, 2.0];
+        let mut even = Roots::default();
+        [0.0, 2.0].into_iter().for_each(|x| even.push(x));
         pair_up(&mut even, |x| (x - 1.0).abs());
-        assert_eq!(even, [0.0, 2.0]);
+        assert_eq!(&even[..], [0.0, 2.0]);
     }
 
     #[test]

@@ -60,13 +60,14 @@ pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32
         if left <= 0.0 {
             return light;
         }
-        let Some(hit) = ctx.occluder(from, dir, left) else {
+        let Some((object, crossing)) = ctx.occluder(from, dir, left) else {
             return light;
         };
-        let m = ctx.material_of(hit.object);
+        let m = ctx.material_of(object);
         if m.alpha <= 0.0 {
             return Vec3::ZERO;
         }
+        let hit = ctx.geometry.objects[object as usize].hit(object, from.point, dir, &crossing);
         light *= if tint { m.alpha * ctx.color_at(&hit) } else { Vec3::splat(m.alpha) };
         match ctx.geometry.past(&hit, dir) {
             Some(past) => surface = past,
@@ -181,6 +182,19 @@ mod tests {
         );
         // A light inside a glass sphere is dimmed by it once.
         assert_eq!(transmittance("transmissive", false, vec![sphere_at(3.0, 0)], 3.0), Vec3::splat(0.5));
+    }
+
+    #[test]
+    fn an_opaque_object_inside_glass_is_not_met_as_on_the_refraction_path() {
+        // As the handout's refraction path, a shadow ray crosses a transparent object meeting
+        // nothing inside it: a small opaque ball within the glass casts no shadow through it.
+        let inner = Object::new(
+            Shape::Sphere,
+            Affine3A::from_scale_rotation_translation(Vec3::splat(0.2), glam::Quat::IDENTITY, Vec3::new(0.0, 0.0, 3.0)),
+            1,
+        )
+        .unwrap();
+        assert_eq!(transmittance("transmissive", false, vec![sphere_at(3.0, 0), inner], 10.0), Vec3::splat(0.5));
     }
 
     #[test]

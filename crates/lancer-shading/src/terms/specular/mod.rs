@@ -26,9 +26,19 @@ pub fn blinn_exponent(shine: f32) -> Option<f32> {
 #[inline]
 pub fn half_vector_lobe(n: Vec3, w: Vec3, u: Vec3, e: f32) -> f32 {
     match (w - u).try_normalize() {
-        Some(h) => n.dot(h).clamp(0.0, 1.0).powf(e),
+        Some(h) => lobe(n.dot(h).clamp(0.0, 1.0), e),
         None => 0.0,
     }
+}
+
+/// `c^e` for `c` in [0, 1]. An exponent that is a whole number but for the rounding of `shine`
+/// in single precision (the handout's shine values give 5, 20, 40, 80, 100: 0.975 gives
+/// 39.99994) is taken as that whole number and computed by repeated multiplication, much
+/// cheaper than `powf`; any other exponent goes to `powf`.
+#[inline]
+pub fn lobe(c: f32, e: f32) -> f32 {
+    let whole = e.round();
+    if (e - whole).abs() <= 1e-4 * whole && whole <= 1024.0 { c.powi(whole as i32) } else { c.powf(e) }
 }
 
 /// The optional `exponent` parameter shared by both Blinn variants.
@@ -46,6 +56,20 @@ pub(crate) fn read_exponent(p: &mut crate::Params) -> Result<Option<f32>, crate:
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn whole_exponents_go_by_multiplication_and_agree_with_powf() {
+        // 1/(1 − 0.975) is 39.99994 in f32: taken as 40, which c^40 by hand confirms.
+        let e = 1.0 / (1.0 - 0.975f32);
+        assert_ne!(e, 40.0);
+        let c = 0.9f32;
+        let by_hand = (0..40).fold(1.0f32, |acc, _| acc * c);
+        assert!((lobe(c, e) - by_hand).abs() <= 1e-6 * by_hand, "{} vs {by_hand}", lobe(c, e));
+        // A fractional exponent is left to powf: 0.25^1.5 = 0.125.
+        assert!((lobe(0.25, 1.5) - 0.125).abs() < 1e-7);
+        assert_eq!(lobe(0.0, 40.0), 0.0);
+        assert_eq!(lobe(1.0, 100.0), 1.0);
+    }
 
     #[test]
     fn blinn_peaks_where_phong_does_with_about_the_same_width() {

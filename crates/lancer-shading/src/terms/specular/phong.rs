@@ -33,7 +33,7 @@ pub fn phong_factor(shine: f32, c: f32) -> f32 {
     if shine <= 0.0 || shine >= 1.0 || c <= 0.0 {
         return 0.0;
     }
-    shine * c.min(1.0).powf(1.0 / (1.0 - shine))
+    shine * super::lobe(c.min(1.0), 1.0 / (1.0 - shine))
 }
 
 impl Term for Phong {
