@@ -1,6 +1,10 @@
-//! A bounding volume hierarchy built with binned SAH and flattened into an array for traversal.
+//! A bounding volume hierarchy built with binned SAH, then collapsed into a 4-wide tree whose
+//! nodes keep their children's boxes side by side (structure of arrays), so one pass of slab
+//! arithmetic tests all four children at once; traversal visits the nearer children first and
+//! drops those that begin beyond the best hit found.
 
 use glam::Vec3;
+use wide::{CmpLe, f32x4};
 
 use crate::Aabb;
 
@@ -14,9 +18,33 @@ struct Node {
     axis: u8,
 }
 
+/// A node of the 4-wide tree: up to four children, each an inner node or a run of items.
+#[derive(Clone, Copy, Debug)]
+struct Node4 {
+    /// Children's lower corners, per axis, one lane per child.
+    min: [f32x4; 3],
+    /// Children's upper corners, per axis, one lane per child.
+    max: [f32x4; 3],
+    /// An inner child's node index, or a leaf child's first position in `indices`.
+    child: [u32; 4],
+    /// A leaf child's item count; [`INNER`] for an inner child, 0 for an empty slot.
+    count: [u32; 4],
+    /// Bit `k` set when slot `k` holds a child.
+    used: i32,
+}
+
+/// `Node4::count` of an inner child.
+const INNER: u32 = u32::MAX;
+
 /// A BVH over items given by their bounds; queries report item indices.
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
+    nodes: Vec<Node4>,
+    indices: Vec<u32>,
+}
+
+/// The binary tree the SAH build makes, before it is collapsed.
+struct Binary {
     nodes: Vec<Node>,
     indices: Vec<u32>,
 }
@@ -27,12 +55,23 @@ const MAX_LEAF: usize = 4;
 impl Bvh {
     /// Builds the hierarchy over `bounds` (item `i` has `bounds[i]`).
     pub fn build(bounds: &[Aabb]) -> Bvh {
-        let mut bvh = Bvh { nodes: Vec::with_capacity(2 * bounds.len()), indices: (0..bounds.len() as u32).collect() };
-        if !bounds.is_empty() {
-            let centres: Vec<Vec3> = bounds.iter().map(|b| b.centre()).collect();
-            bvh.split(bounds, &centres, 0, bounds.len());
+        let mut bin =
+            Binary { nodes: Vec::with_capacity(2 * bounds.len()), indices: (0..bounds.len() as u32).collect() };
+        if bounds.is_empty() {
+            return Bvh::default();
         }
-        bvh
+        let centres: Vec<Vec3> = bounds.iter().map(|b| b.centre()).collect();
+        bin.split(bounds, &centres, 0, bounds.len());
+        let mut nodes = Vec::with_capacity(bin.nodes.len() / 2 + 1);
+        if bin.nodes[0].count > 0 {
+            // A single leaf: one slot of the root.
+            let mut root = Node4::EMPTY;
+            root.set(0, &bin.nodes[0].bounds, bin.nodes[0].start, bin.nodes[0].count);
+            nodes.push(root);
+        } else {
+            bin.collapse(0, &mut nodes);
+        }
+        Bvh { nodes, indices: bin.indices }
     }
 
     /// Number of items.
@@ -44,7 +83,43 @@ impl Bvh {
     pub fn is_empty(&self) -> bool {
         self.indices.is_empty()
     }
+}
 
+impl Node4 {
+    const EMPTY: Node4 = Node4 { min: [f32x4::ZERO; 3], max: [f32x4::ZERO; 3], child: [0; 4], count: [0; 4], used: 0 };
+
+    fn set(&mut self, slot: usize, b: &Aabb, child: u32, count: u32) {
+        for axis in 0..3 {
+            let (mut lo, mut hi) = (self.min[axis].to_array(), self.max[axis].to_array());
+            lo[slot] = b.min[axis];
+            hi[slot] = b.max[axis];
+            (self.min[axis], self.max[axis]) = (f32x4::new(lo), f32x4::new(hi));
+        }
+        self.child[slot] = child;
+        self.count[slot] = count;
+        self.used |= 1 << slot;
+    }
+
+    /// The entry distance of the ray into each child's box within `[tmin, tmax]` (`o` and
+    /// `inv_d` splatted per axis), and a bit mask of the children it meets: four slab tests in
+    /// one pass of SIMD arithmetic.
+    #[inline]
+    fn enter(&self, o: &[f32x4; 3], inv_d: &[f32x4; 3], tmin: f32, tmax: f32) -> ([f32; 4], i32) {
+        let mut near = f32x4::splat(tmin);
+        let mut far = f32x4::splat(tmax);
+        for axis in 0..3 {
+            let a = (self.min[axis] - o[axis]) * inv_d[axis];
+            let b = (self.max[axis] - o[axis]) * inv_d[axis];
+            // A NaN (0 · ∞ on a slab's own plane) loses to the other operand in `fast_max` and
+            // `fast_min` taken in this order, so the bound is kept and such rays stay in.
+            near = a.fast_min(b).fast_max(near);
+            far = a.fast_max(b).fast_min(far);
+        }
+        (near.to_array(), near.cmp_le(far).move_mask() & self.used)
+    }
+}
+
+impl Binary {
     fn split(&mut self, bounds: &[Aabb], centres: &[Vec3], start: usize, end: usize) -> usize {
         let items = &self.indices[start..end];
         let node_bounds = items.iter().fold(Aabb::EMPTY, |a, &i| a.union(bounds[i as usize]));
@@ -110,6 +185,32 @@ impl Bvh {
         node
     }
 
+    /// Collapses binary node `at` (an inner node) and its descendants into 4-wide nodes: its
+    /// children, with the largest inner ones replaced by theirs until there are four.
+    fn collapse(&self, at: usize, out: &mut Vec<Node4>) -> u32 {
+        let children = |i: usize| [i + 1, self.nodes[i].start as usize];
+        let mut kids: Vec<usize> = children(at).to_vec();
+        while kids.len() < 4 {
+            let widest = (0..kids.len()).filter(|&k| self.nodes[kids[k]].count == 0).max_by(|&a, &b| {
+                self.nodes[kids[a]].bounds.half_area().total_cmp(&self.nodes[kids[b]].bounds.half_area())
+            });
+            let Some(k) = widest else { break };
+            let [l, r] = children(kids[k]);
+            kids[k] = l;
+            kids.insert(k + 1, r);
+        }
+        let me = out.len();
+        out.push(Node4::EMPTY);
+        for (slot, &k) in kids.iter().enumerate() {
+            let n = &self.nodes[k];
+            let node = if n.count > 0 { (n.start, n.count) } else { (self.collapse(k, out), INNER) };
+            out[me].set(slot, &n.bounds, node.0, node.1);
+        }
+        me as u32
+    }
+}
+
+impl Bvh {
     /// Visits the items whose boxes the ray `o + t d` meets within `[0, tmax]`, nearer subtrees
     /// first. `visit(item, tmax)` returns the new `tmax` (the closest hit found so far).
     #[inline]
@@ -117,7 +218,9 @@ impl Bvh {
         self.traverse_from(o, d, 0.0, tmax, visit)
     }
 
-    /// As [`Bvh::traverse`], skipping boxes that end before `tmin`.
+    /// As [`Bvh::traverse`], skipping boxes that end before `tmin`. A subtree or leaf whose box
+    /// begins beyond the best hit so far is dropped; the order of visits depends only on the ray,
+    /// so the same ray always gets the same answer.
     #[inline]
     pub fn traverse_from(
         &self,
@@ -130,27 +233,49 @@ impl Bvh {
         if self.nodes.is_empty() {
             return tmax;
         }
-        let inv_d = d.recip();
-        let mut stack = [0u32; 64];
+        let inv = d.recip();
+        let o = [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)];
+        let inv_d = [f32x4::splat(inv.x), f32x4::splat(inv.y), f32x4::splat(inv.z)];
+        // (node, entry distance); depth is bounded by the item count's log for SAH splits, and
+        // each level leaves at most three entries behind: far below 96 for any scene in memory.
+        let mut stack = [(0u32, 0f32); 96];
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let node = &self.nodes[stack[top] as usize];
-            if node.bounds.hit_range(o, inv_d, tmin, tmax).is_none() {
+            let (index, entry) = stack[top];
+            if entry > tmax {
                 continue;
             }
-            if node.count > 0 {
-                for &i in &self.indices[node.start as usize..(node.start + node.count) as usize] {
-                    tmax = visit(i, tmax);
+            let node = &self.nodes[index as usize];
+            let (near, mask) = node.enter(&o, &inv_d, tmin, tmax);
+            // The children met, nearest first (insertion order on ties: slot order).
+            let mut order = [0usize; 4];
+            let mut met = 0;
+            for k in 0..4 {
+                if mask & (1 << k) != 0 {
+                    let mut at = met;
+                    while at > 0 && near[order[at - 1]] > near[k] {
+                        order[at] = order[at - 1];
+                        at -= 1;
+                    }
+                    order[at] = k;
+                    met += 1;
                 }
-            } else {
-                let left = stack[top] + 1;
-                let (first, second) = if d[node.axis as usize] < 0.0 { (node.start, left) } else { (left, node.start) };
-                // Push the far child first so the near one is visited next. Depth is bounded by
-                // the item count's log for SAH splits, far below 64 for any scene that fits in memory.
-                stack[top] = second;
-                stack[top + 1] = first;
-                top += 2;
+            }
+            // Leaves now, nearest first; inner children onto the stack, farthest first.
+            for &k in &order[..met] {
+                if node.count[k] != INNER && near[k] <= tmax {
+                    let start = node.child[k] as usize;
+                    for &i in &self.indices[start..start + node.count[k] as usize] {
+                        tmax = visit(i, tmax);
+                    }
+                }
+            }
+            for &k in order[..met].iter().rev() {
+                if node.count[k] == INNER && near[k] <= tmax {
+                    stack[top] = (node.child[k], near[k]);
+                    top += 1;
+                }
             }
         }
         tmax

@@ -105,7 +105,13 @@ impl Object {
         match self.fast {
             Fast::Sphere { centre, radius2 } => {
                 let (t0, t1) = crate::shape::sphere_roots_world(o - centre, d, radius2)?;
-                let t = if ok(t0) { t0 } else if ok(t1) { t1 } else { return None };
+                let t = if ok(t0) {
+                    t0
+                } else if ok(t1) {
+                    t1
+                } else {
+                    return None;
+                };
                 Some(ShapeHit { t, normal: Vec3::ZERO, part: 0, bary: Vec2::ZERO })
             }
             Fast::Plane { normal, offset } => {

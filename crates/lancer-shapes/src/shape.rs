@@ -253,12 +253,20 @@ impl Shape {
                 (ok(t) && p.x * p.x + p.z * p.z <= 1.0).then_some(ShapeHit::of((t, Vec3::Y)))
             }
             // The normal comes from `surface`, for the hit that wins.
-            Shape::Torus { minor } => crate::torus::first_t(*minor, o, d, tmin, tmax).map(|t| ShapeHit::of((t, Vec3::ZERO))),
+            Shape::Torus { minor } => {
+                crate::torus::first_t(*minor, o, d, tmin, tmax).map(|t| ShapeHit::of((t, Vec3::ZERO)))
+            }
             Shape::Csg(csg) => first_boundary(&csg.spans(o, d), tmin, tmax),
             Shape::Mesh(m) => m.intersect(o, d, tmin, tmax),
             Shape::Sphere => {
                 let (t0, t1) = sphere_roots(o, d)?;
-                let t = if ok(t0) { t0 } else if ok(t1) { t1 } else { return None };
+                let t = if ok(t0) {
+                    t0
+                } else if ok(t1) {
+                    t1
+                } else {
+                    return None;
+                };
                 Some(ShapeHit::of((t, Vec3::ZERO)))
             }
             _ => {
@@ -594,9 +602,10 @@ mod tests {
 
     #[test]
     fn sphere_from_outside_and_exit_from_inside() {
-        let ShapeHit { t, normal: n, .. } =
-            Shape::Sphere.intersect(Vec3::new(0.0, 0.0, -5.0), Vec3::Z, 0.0, f32::INFINITY).unwrap();
-        assert!((t - 4.0).abs() < 1e-6 && (n + Vec3::Z).length() < 1e-6);
+        let (o, d) = (Vec3::new(0.0, 0.0, -5.0), Vec3::Z);
+        let hit = Shape::Sphere.intersect(o, d, 0.0, f32::INFINITY).unwrap();
+        let n = Shape::Sphere.surface(o, d, &hit).normal;
+        assert!((hit.t - 4.0).abs() < 1e-6 && (n + Vec3::Z).length() < 1e-6);
         let ShapeHit { t, normal: n, .. } = Shape::Sphere.exit(Vec3::new(0.0, 0.0, -0.999), Vec3::Z).unwrap();
         assert!((t - 1.999).abs() < 1e-5 && (n - Vec3::Z).length() < 1e-6);
         assert!(Shape::Sphere.intersect(Vec3::new(0.0, 2.0, -5.0), Vec3::Z, 0.0, f32::INFINITY).is_none());
