@@ -51,6 +51,11 @@ struct Binary {
 
 const BINS: usize = 12;
 const MAX_LEAF: usize = 4;
+/// The binary tree's greatest depth; the 4-wide tree is no deeper, and each of its levels leaves
+/// at most three entries on the traversal stack.
+const MAX_DEPTH: usize = 64;
+/// The traversal stack's size: room for three entries per level and the root.
+const STACK: usize = 3 * MAX_DEPTH + 1;
 
 impl Bvh {
     /// Builds the hierarchy over `bounds` (item `i` has `bounds[i]`).
@@ -61,7 +66,7 @@ impl Bvh {
             return Bvh::default();
         }
         let centres: Vec<Vec3> = bounds.iter().map(|b| b.centre()).collect();
-        bin.split(bounds, &centres, 0, bounds.len());
+        bin.split(bounds, &centres, 0, bounds.len(), 0);
         let mut nodes = Vec::with_capacity(bin.nodes.len() / 2 + 1);
         if bin.nodes[0].count > 0 {
             // A single leaf: one slot of the root.
@@ -120,7 +125,7 @@ impl Node4 {
 }
 
 impl Binary {
-    fn split(&mut self, bounds: &[Aabb], centres: &[Vec3], start: usize, end: usize) -> usize {
+    fn split(&mut self, bounds: &[Aabb], centres: &[Vec3], start: usize, end: usize, depth: usize) -> usize {
         let items = &self.indices[start..end];
         let node_bounds = items.iter().fold(Aabb::EMPTY, |a, &i| a.union(bounds[i as usize]));
         let cb = items
@@ -131,7 +136,9 @@ impl Binary {
         let n = end - start;
         let extent = cb.max - cb.min;
         let axis = extent.max_position();
-        if n <= 1 || extent[axis] <= 0.0 {
+        // Deeper than MAX_DEPTH (only adversarial inputs get there) the rest is one leaf, which
+        // bounds the traversal stack.
+        if n <= 1 || extent[axis] <= 0.0 || depth >= MAX_DEPTH {
             return node;
         }
 
@@ -177,8 +184,8 @@ impl Binary {
             }
         }
         let mid = start + mid;
-        self.split(bounds, centres, start, mid);
-        let right = self.split(bounds, centres, mid, end);
+        self.split(bounds, centres, start, mid, depth + 1);
+        let right = self.split(bounds, centres, mid, end, depth + 1);
         self.nodes[node].start = right as u32;
         self.nodes[node].count = 0;
         self.nodes[node].axis = axis as u8;
@@ -236,13 +243,11 @@ impl Bvh {
         let inv = d.recip();
         let o = [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)];
         let inv_d = [f32x4::splat(inv.x), f32x4::splat(inv.y), f32x4::splat(inv.z)];
-        // (node, entry distance); depth is bounded by the item count's log for SAH splits, and
-        // each level leaves at most three entries behind: far below 96 for any scene in memory.
-        let mut stack = [(0u32, 0f32); 96];
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let (index, entry) = stack[top];
+        // (node, entry distance), at most three per level of a tree at most MAX_DEPTH deep; an
+        // `ArrayVec`, so no memory to clear per query.
+        let mut stack: arrayvec::ArrayVec<(u32, f32), STACK> = arrayvec::ArrayVec::new();
+        stack.push((0, tmin));
+        while let Some((index, entry)) = stack.pop() {
             if entry > tmax {
                 continue;
             }
@@ -273,11 +278,31 @@ impl Bvh {
             }
             for &k in order[..met].iter().rev() {
                 if node.count[k] == INNER && near[k] <= tmax {
-                    stack[top] = (node.child[k], near[k]);
-                    top += 1;
+                    stack.push((node.child[k], near[k]));
                 }
             }
         }
         tmax
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_degenerate_hierarchy_stays_within_the_traversal_stack() {
+        // Nested boxes of exponentially growing size: each SAH split peels off one box, so the
+        // binary tree would be as deep as there are boxes. The depth cap keeps the traversal
+        // stack bounded, and every box the ray crosses is still visited.
+        let boxes: Vec<Aabb> =
+            (0..200).map(|i| Aabb { min: Vec3::ZERO, max: Vec3::splat(1.5f32.powi(i as i32 / 2 + 1)) }).collect();
+        let bvh = Bvh::build(&boxes);
+        let mut seen = vec![false; boxes.len()];
+        bvh.traverse(Vec3::new(0.5, 0.5, -1.0), Vec3::Z, f32::INFINITY, |i, tmax| {
+            seen[i as usize] = true;
+            tmax
+        });
+        assert!(seen.iter().all(|&s| s), "every box contains the ray's path");
     }
 }
