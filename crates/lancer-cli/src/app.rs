@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use crate::output::{Format, write_atomic};
+use crate::output::Format;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use lancer_core::Frame;
@@ -203,10 +203,13 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     bar.finish_and_clear();
 
     let beauty = frame.beauty();
-    write_atomic(&args.output, &format.encode(frame.width, frame.height, &beauty)?)?;
-    if let Some(dir) = &args.aov {
-        write_aovs(dir, &frame, &beauty, args.aov_format)?;
-    }
+    pool.install(|| -> Result<()> {
+        format.write(&args.output, frame.width, frame.height, &beauty)?;
+        if let Some(dir) = &args.aov {
+            write_aovs(dir, &frame, &beauty, args.aov_format)?;
+        }
+        Ok(())
+    })?;
     if !args.quiet {
         eprintln!(
             "rendered {name} at {}x{} ({} spp, {} terms) in {:.3} s: {:.2} M rays ({} camera, {} secondary, {} shadow), {:.1} M rays/s -> {}{}",
@@ -240,16 +243,18 @@ fn write_aovs(dir: &Path, frame: &Frame, beauty: &[glam::Vec3], which: AovFormat
         images.push((&layer.name, &layer.pixels));
     }
     images.push(("beauty", beauty));
-    for (name, pixels) in images {
-        let formats = match which {
-            AovFormat::Exr => &[Format::Exr][..],
-            AovFormat::Png => &[Format::Png][..],
-            AovFormat::Both => &[Format::Exr, Format::Png][..],
-        };
-        for &format in formats {
-            let ext = if format == Format::Exr { "exr" } else { "png" };
-            write_atomic(&dir.join(format!("{name}.{ext}")), &format.encode(frame.width, frame.height, pixels)?)?;
-        }
-    }
-    Ok(())
+    let formats = match which {
+        AovFormat::Exr => &[Format::Exr][..],
+        AovFormat::Png => &[Format::Png][..],
+        AovFormat::Both => &[Format::Exr, Format::Png][..],
+    };
+    // Every image and format on the worker threads at once; each file is written whole or not
+    // at all.
+    use rayon::prelude::*;
+    let jobs: Vec<(&str, &[glam::Vec3], Format)> =
+        images.iter().flat_map(|&(name, px)| formats.iter().map(move |&f| (name, px, f))).collect();
+    jobs.into_par_iter().try_for_each(|(name, pixels, format)| {
+        let ext = if format == Format::Exr { "exr" } else { "png" };
+        format.write(&dir.join(format!("{name}.{ext}")), frame.width, frame.height, pixels)
+    })
 }

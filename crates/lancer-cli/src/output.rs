@@ -1,6 +1,6 @@
 //! Image encoding and atomic file output.
 
-use std::io::{Cursor, Write};
+use std::io::{BufWriter, Cursor, Seek, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -20,19 +20,29 @@ pub fn to_srgb8(pixels: &[Vec3]) -> Vec<u8> {
 
 /// A PNG file's bytes: the linear image sRGB-encoded to 8 bits per channel.
 pub fn encode_png(width: u32, height: u32, pixels: &[Vec3]) -> Result<Vec<u8>> {
-    let img = image::RgbImage::from_raw(width, height, to_srgb8(pixels)).context("image buffer has the wrong size")?;
     let mut out = Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png).context("encoding PNG")?;
+    write_png(&mut out, width, height, pixels)?;
     Ok(out.into_inner())
+}
+
+fn write_png(out: &mut (impl Write + Seek), width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
+    let img = image::RgbImage::from_raw(width, height, to_srgb8(pixels)).context("image buffer has the wrong size")?;
+    img.write_to(out, image::ImageFormat::Png).context("encoding PNG")
 }
 
 /// An OpenEXR file's bytes: the linear image as 32-bit floats.
 pub fn encode_exr(width: u32, height: u32, pixels: &[Vec3]) -> Result<Vec<u8>> {
-    let raw: Vec<f32> = pixels.iter().flat_map(|p| p.to_array()).collect();
-    let img = image::Rgb32FImage::from_raw(width, height, raw).context("image buffer has the wrong size")?;
     let mut out = Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::OpenExr).context("encoding EXR")?;
+    write_exr(&mut out, width, height, pixels)?;
     Ok(out.into_inner())
+}
+
+/// The image read in place as floats (no copy of the layer), encoded straight to `out`.
+fn write_exr(out: &mut (impl Write + Seek), width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
+    let floats: &[f32] = bytemuck::cast_slice(pixels);
+    let img = image::ImageBuffer::<image::Rgb<f32>, &[f32]>::from_raw(width, height, floats)
+        .context("image buffer has the wrong size")?;
+    img.write_to(out, image::ImageFormat::OpenExr).context("encoding EXR")
 }
 
 /// The image formats `lancer` writes.
@@ -61,18 +71,39 @@ impl Format {
             Format::Exr => encode_exr(width, height, pixels),
         }
     }
+
+    /// Writes a linear image in this format to `path`, whole or not at all, encoding straight
+    /// into the file (no copy of the encoded image in memory).
+    pub fn write(self, path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
+        atomically(path, |file| {
+            let mut out = BufWriter::new(file);
+            match self {
+                Format::Png => write_png(&mut out, width, height, pixels)?,
+                Format::Exr => write_exr(&mut out, width, height, pixels)?,
+            }
+            out.flush()?;
+            Ok(())
+        })
+    }
 }
 
 /// Writes `bytes` to `path` whole or not at all: into a temporary file beside it, then renamed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    atomically(path, |f| Ok(f.write_all(bytes)?))
+}
+
+/// Runs `fill` on a temporary file beside `path`, flushes it to disk and renames it to `path`;
+/// on any error the temporary file is removed and `path` is untouched.
+fn atomically(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<()> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
     let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
-    let result = (|| {
+    let result = (|| -> Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
+        fill(&mut f)?;
         f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        std::fs::rename(&tmp, path)?;
+        Ok(())
     })();
     if let Err(e) = result {
         let _ = std::fs::remove_file(&tmp);
