@@ -296,7 +296,7 @@ mod tests {
         // binary tree would be as deep as there are boxes. The depth cap keeps the traversal
         // stack bounded, and every box the ray crosses is still visited.
         let boxes: Vec<Aabb> =
-            (0..200).map(|i| Aabb { min: Vec3::ZERO, max: Vec3::splat(1.5f32.powi(i as i32 / 2 + 1)) }).collect();
+            (0..200).map(|i| Aabb { min: Vec3::ZERO, max: Vec3::splat(1.5f32.powi(i / 2 + 1)) }).collect();
         let bvh = Bvh::build(&boxes);
         let mut seen = vec![false; boxes.len()];
         bvh.traverse(Vec3::new(0.5, 0.5, -1.0), Vec3::Z, f32::INFINITY, |i, tmax| {
