@@ -308,7 +308,9 @@ impl Meshes {
         }
         let bad = |msg: String| cx.err(path.span(), LoadErrorKind::Syntax(format!("mesh `{}`: {msg}", path.get_ref())));
         let bytes = resolve(path.get_ref()).map_err(bad)?;
-        let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+        // Separate index lists (single_index would hash every corner): most files index normals
+        // and texture coordinates like positions, and `one_index` merges them only otherwise.
+        let options = tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() };
         // Materials come from the scene, not from the OBJ's mtllib: ignore it.
         let no_materials = |_: &std::path::Path| -> tobj::MTLLoadResult { Ok((Vec::new(), Default::default())) };
         let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, no_materials)
@@ -317,7 +319,7 @@ impl Meshes {
         let smooth = models.iter().all(|m| !m.mesh.normals.is_empty());
         let textured = models.iter().all(|m| !m.mesh.texcoords.is_empty());
         for model in &models {
-            let m = &model.mesh;
+            let m = one_index(&model.mesh, smooth, textured).map_err(|e| bad(e.to_owned()))?;
             let base = positions.len() as u32;
             positions.extend(m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
             if smooth {
@@ -332,6 +334,44 @@ impl Meshes {
         self.by_path.insert(path.get_ref().clone(), mesh.clone());
         Ok(mesh)
     }
+}
+
+/// A mesh with one index per corner for positions, normals (with `smooth`) and texture
+/// coordinates (with `textured`): borrowed as it is when the file indexes them alike, else with a
+/// vertex for each distinct combination (found by sorting the corners, not hashing them).
+fn one_index(m: &tobj::Mesh, smooth: bool, textured: bool) -> Result<std::borrow::Cow<'_, tobj::Mesh>, &'static str> {
+    let alike = |other: &[u32]| other.is_empty() || other == m.indices.as_slice();
+    let (ni, ti) = (smooth && !m.normal_indices.is_empty(), textured && !m.texcoord_indices.is_empty());
+    if alike(&m.normal_indices) && alike(&m.texcoord_indices) {
+        return Ok(std::borrow::Cow::Borrowed(m));
+    }
+    let corners = m.indices.len();
+    if (ni && m.normal_indices.len() != corners) || (ti && m.texcoord_indices.len() != corners) {
+        return Err("a face gives normals or texture coordinates to some of its corners only");
+    }
+    let key =
+        |k: usize| (m.indices[k], if ni { m.normal_indices[k] } else { 0 }, if ti { m.texcoord_indices[k] } else { 0 });
+    let mut order: Vec<u32> = (0..corners as u32).collect();
+    order.sort_unstable_by_key(|&k| (key(k as usize), k));
+    let mut out = tobj::Mesh { indices: vec![0; corners], ..Default::default() };
+    let mut last = None;
+    for &k in &order {
+        let (p, n, t) = key(k as usize);
+        if last != Some((p, n, t)) {
+            last = Some((p, n, t));
+            let get = |v: &[f32], i: u32, w: usize| v.get(i as usize * w..(i as usize + 1) * w).map(<[f32]>::to_vec);
+            out.positions.extend(get(&m.positions, p, 3).ok_or("a face names a vertex that does not exist")?);
+            if smooth {
+                out.normals.extend(get(&m.normals, n, 3).ok_or("a face names a normal that does not exist")?);
+            }
+            if textured {
+                out.texcoords
+                    .extend(get(&m.texcoords, t, 2).ok_or("a face names texture coordinates that do not exist")?);
+            }
+        }
+        out.indices[k as usize] = (out.positions.len() / 3 - 1) as u32;
+    }
+    Ok(std::borrow::Cow::Owned(out))
 }
 
 /// Texture images loaded so far, each file once.

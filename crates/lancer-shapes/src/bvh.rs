@@ -15,7 +15,6 @@ struct Node {
     bounds: Aabb,
     start: u32,
     count: u32,
-    axis: u8,
 }
 
 /// A node of the 4-wide tree: up to four children, each an inner node or a run of items.
@@ -60,14 +59,16 @@ const STACK: usize = 3 * MAX_DEPTH + 1;
 impl Bvh {
     /// Builds the hierarchy over `bounds` (item `i` has `bounds[i]`).
     pub fn build(bounds: &[Aabb]) -> Bvh {
-        let mut bin =
-            Binary { nodes: Vec::with_capacity(2 * bounds.len()), indices: (0..bounds.len() as u32).collect() };
         if bounds.is_empty() {
             return Bvh::default();
         }
-        let centres: Vec<Vec3> = bounds.iter().map(|b| b.centre()).collect();
-        bin.split(bounds, &centres, 0, bounds.len(), 0);
-        let mut nodes = Vec::with_capacity(bin.nodes.len() / 2 + 1);
+        let mut items: Vec<Item> =
+            bounds.iter().enumerate().map(|(i, &bounds)| Item { bounds, index: i as u32 }).collect();
+        let nodes = build(&mut items, 0, 0);
+        let bin = Binary { nodes, indices: items.into_iter().map(|i| i.index).collect() };
+        // A 4-wide node replaces about three binary inner nodes.
+        let inner = bin.nodes.iter().filter(|n| n.count == 0).count();
+        let mut nodes = Vec::with_capacity(inner / 3 + 1);
         if bin.nodes[0].count > 0 {
             // A single leaf: one slot of the root.
             let mut root = Node4::EMPTY;
@@ -124,79 +125,134 @@ impl Node4 {
     }
 }
 
-impl Binary {
-    fn split(&mut self, bounds: &[Aabb], centres: &[Vec3], start: usize, end: usize, depth: usize) -> usize {
-        let items = &self.indices[start..end];
-        let node_bounds = items.iter().fold(Aabb::EMPTY, |a, &i| a.union(bounds[i as usize]));
-        let cb = items
-            .iter()
-            .fold(Aabb::EMPTY, |a, &i| a.union(Aabb { min: centres[i as usize], max: centres[i as usize] }));
-        let node = self.nodes.len();
-        self.nodes.push(Node { bounds: node_bounds, start: start as u32, count: (end - start) as u32, axis: 0 });
-        let n = end - start;
-        let extent = cb.max - cb.min;
-        let axis = extent.max_position();
-        // Deeper than MAX_DEPTH (only adversarial inputs get there) the rest is one leaf, which
-        // bounds the traversal stack.
-        if n <= 1 || extent[axis] <= 0.0 || depth >= MAX_DEPTH {
-            return node;
-        }
+/// Ranges of at least this many items are split on two threads at once.
+const PARALLEL: usize = 1 << 15;
 
-        // Bin centroids along the widest axis and sweep for the cheapest SAH split.
-        let scale = BINS as f32 / extent[axis];
-        let bin_of = |c: Vec3| (((c[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
-        let mut bins = [(Aabb::EMPTY, 0usize); BINS];
-        for &i in items {
-            let b = &mut bins[bin_of(centres[i as usize])];
-            b.0 = b.0.union(bounds[i as usize]);
-            b.1 += 1;
-        }
-        let mut right_cost = [0.0f32; BINS];
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-        for k in (1..BINS).rev() {
-            acc = acc.union(bins[k].0);
-            cnt += bins[k].1;
-            right_cost[k] = acc.half_area() * cnt as f32;
-        }
-        let (mut best, mut best_cost) = (0, f32::INFINITY);
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-        for k in 0..BINS - 1 {
-            acc = acc.union(bins[k].0);
-            cnt += bins[k].1;
-            let cost = acc.half_area() * cnt as f32 + right_cost[k + 1];
-            if cnt > 0 && cnt < n && cost < best_cost {
-                best = k + 1;
-                best_cost = cost;
-            }
-        }
-        let leaf_cost = node_bounds.half_area() * n as f32;
-        if best == 0 || (n <= MAX_LEAF && best_cost >= leaf_cost) {
-            return node;
-        }
+/// An item during the build: its box kept beside its index, so partitions read memory in order.
+#[derive(Clone, Copy)]
+struct Item {
+    bounds: Aabb,
+    index: u32,
+}
 
-        // Partition in place, in one pass (deterministic: it depends only on the input order).
-        let slice = &mut self.indices[start..end];
-        let mut mid = 0;
-        for k in 0..slice.len() {
-            if bin_of(centres[slice[k] as usize]) < best {
-                slice.swap(k, mid);
-                mid += 1;
-            }
-        }
-        let mid = start + mid;
-        self.split(bounds, centres, start, mid, depth + 1);
-        let right = self.split(bounds, centres, mid, end, depth + 1);
-        self.nodes[node].start = right as u32;
-        self.nodes[node].count = 0;
-        self.nodes[node].axis = axis as u8;
-        node
+impl Item {
+    #[inline]
+    fn centre(&self) -> Vec3 {
+        self.bounds.centre()
+    }
+}
+
+/// How the items of a range split: their bounds, and `None` for a leaf or `Some(mid)` after
+/// partitioning `items` in place (binned SAH along the widest axis of the centroids;
+/// deterministic: it depends only on the input order).
+fn plan(items: &mut [Item], depth: usize) -> (Aabb, Option<usize>) {
+    let node_bounds = items.iter().fold(Aabb::EMPTY, |a, i| a.union(i.bounds));
+    let cb = items.iter().fold(Aabb::EMPTY, |a, i| {
+        let c = i.centre();
+        a.union(Aabb { min: c, max: c })
+    });
+    let n = items.len();
+    let extent = cb.max - cb.min;
+    let axis = extent.max_position();
+    // Deeper than MAX_DEPTH (only adversarial inputs get there) the rest is one leaf, which
+    // bounds the traversal stack.
+    if n <= 1 || extent[axis] <= 0.0 || depth >= MAX_DEPTH {
+        return (node_bounds, None);
     }
 
+    // Bin centroids along the widest axis and sweep for the cheapest SAH split.
+    let scale = BINS as f32 / extent[axis];
+    let bin_of = |c: Vec3| (((c[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
+    let mut bins = [(Aabb::EMPTY, 0usize); BINS];
+    for i in items.iter() {
+        let b = &mut bins[bin_of(i.centre())];
+        b.0 = b.0.union(i.bounds);
+        b.1 += 1;
+    }
+    let mut right_cost = [0.0f32; BINS];
+    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    for k in (1..BINS).rev() {
+        acc = acc.union(bins[k].0);
+        cnt += bins[k].1;
+        right_cost[k] = acc.half_area() * cnt as f32;
+    }
+    let (mut best, mut best_cost) = (0, f32::INFINITY);
+    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    for k in 0..BINS - 1 {
+        acc = acc.union(bins[k].0);
+        cnt += bins[k].1;
+        let cost = acc.half_area() * cnt as f32 + right_cost[k + 1];
+        if cnt > 0 && cnt < n && cost < best_cost {
+            best = k + 1;
+            best_cost = cost;
+        }
+    }
+    let leaf_cost = node_bounds.half_area() * n as f32;
+    if best == 0 || (n <= MAX_LEAF && best_cost >= leaf_cost) {
+        return (node_bounds, None);
+    }
+    // Partition in place, in one pass.
+    let mut mid = 0;
+    for k in 0..items.len() {
+        if bin_of(items[k].centre()) < best {
+            items.swap(k, mid);
+            mid += 1;
+        }
+    }
+    (node_bounds, Some(mid))
+}
+
+/// Builds the subtree over `items` (at `offset` in the whole index list) into `out`, one
+/// thread; returns its root's position in `out`.
+fn build_into(items: &mut [Item], offset: usize, depth: usize, out: &mut Vec<Node>) -> usize {
+    let (b, split) = plan(items, depth);
+    let node = out.len();
+    out.push(Node { bounds: b, start: offset as u32, count: items.len() as u32 });
+    if let Some(mid) = split {
+        let (left, right) = items.split_at_mut(mid);
+        build_into(left, offset, depth + 1, out);
+        let right = build_into(right, offset + mid, depth + 1, out);
+        out[node] = Node { bounds: b, start: right as u32, count: 0 };
+    }
+    node
+}
+
+/// Builds the subtree over `items` as its own node list (root first), splitting large ranges on
+/// two threads. The tree is the same whatever the number of threads.
+fn build(items: &mut [Item], offset: usize, depth: usize) -> Vec<Node> {
+    if items.len() < PARALLEL {
+        let mut out = Vec::with_capacity(2 * items.len());
+        build_into(items, offset, depth, &mut out);
+        return out;
+    }
+    let n = items.len();
+    let (b, split) = plan(items, depth);
+    let Some(mid) = split else {
+        return vec![Node { bounds: b, start: offset as u32, count: n as u32 }];
+    };
+    let (l, r) = items.split_at_mut(mid);
+    let (left, right) = rayon::join(|| build(l, offset, depth + 1), || build(r, offset + mid, depth + 1));
+    let mut out = Vec::with_capacity(1 + left.len() + right.len());
+    out.push(Node { bounds: b, start: (1 + left.len()) as u32, count: 0 });
+    // Inner nodes name their right child by position: shift them by where their list lands.
+    for list in [left, right] {
+        let base = out.len() as u32;
+        out.extend(list.into_iter().map(|mut node| {
+            if node.count == 0 {
+                node.start += base;
+            }
+            node
+        }));
+    }
+    out
+}
+
+impl Binary {
     /// Collapses binary node `at` (an inner node) and its descendants into 4-wide nodes: its
     /// children, with the largest inner ones replaced by theirs until there are four.
     fn collapse(&self, at: usize, out: &mut Vec<Node4>) -> u32 {
         let children = |i: usize| [i + 1, self.nodes[i].start as usize];
-        let mut kids: Vec<usize> = children(at).to_vec();
+        let mut kids: arrayvec::ArrayVec<usize, 4> = children(at).into_iter().collect();
         while kids.len() < 4 {
             let widest = (0..kids.len()).filter(|&k| self.nodes[kids[k]].count == 0).max_by(|&a, &b| {
                 self.nodes[kids[a]].bounds.half_area().total_cmp(&self.nodes[kids[b]].bounds.half_area())
@@ -208,11 +264,21 @@ impl Binary {
         }
         let me = out.len();
         out.push(Node4::EMPTY);
+        let (mut min, mut max) = ([[0.0f32; 4]; 3], [[0.0f32; 4]; 3]);
+        let mut node = Node4::EMPTY;
         for (slot, &k) in kids.iter().enumerate() {
             let n = &self.nodes[k];
-            let node = if n.count > 0 { (n.start, n.count) } else { (self.collapse(k, out), INNER) };
-            out[me].set(slot, &n.bounds, node.0, node.1);
+            for axis in 0..3 {
+                min[axis][slot] = n.bounds.min[axis];
+                max[axis][slot] = n.bounds.max[axis];
+            }
+            (node.child[slot], node.count[slot]) =
+                if n.count > 0 { (n.start, n.count) } else { (self.collapse(k, out), INNER) };
+            node.used |= 1 << slot;
         }
+        node.min = min.map(f32x4::new);
+        node.max = max.map(f32x4::new);
+        out[me] = node;
         me as u32
     }
 }

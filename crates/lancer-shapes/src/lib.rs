@@ -11,6 +11,7 @@ mod geometry;
 mod mesh;
 mod quartic;
 mod shape;
+mod topology;
 mod torus;
 
 pub use aabb::Aabb;

@@ -2,8 +2,6 @@
 //! triangle), a BVH over their triangles, and watertight ray–triangle intersection (Woop, Benthin
 //! and Wald 2013), so rays never slip through the shared edge of two triangles.
 
-use std::collections::HashMap;
-
 use glam::{Vec2, Vec3};
 
 use crate::{Aabb, Bvh, LocalSurface, ShapeHit};
@@ -150,81 +148,8 @@ impl Mesh {
             })
             .collect();
         let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-        // Vertices at the same position count as one, so a texture seam (the same point with two
-        // sets of texture coordinates) does not open the mesh.
-        let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
-        let canonical: Vec<u32> = positions
-            .iter()
-            .enumerate()
-            .map(|(i, p)| *weld.entry(p.to_array().map(f32::to_bits)).or_insert(i as u32))
-            .collect();
         let mut triangles = triangles;
-        let welded = |t: &[u32; 3]| t.map(|i| canonical[i as usize]);
-        let edges_of = |t: [u32; 3]| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])];
-        // Orient: walk each connected piece across shared edges, turning round a neighbour whose
-        // shared edge runs the same way (files often mix windings). A piece that cannot be
-        // oriented (a Möbius strip) keeps its triangles as they are.
-        let mut around: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-        for (k, t) in triangles.iter().enumerate() {
-            for (a, b) in edges_of(welded(t)) {
-                around.entry((a.min(b), a.max(b))).or_default().push(k as u32);
-            }
-        }
-        let mut piece = vec![u32::MAX; triangles.len()];
-        let mut pieces: Vec<Vec<u32>> = Vec::new();
-        for seed in 0..triangles.len() {
-            if piece[seed] != u32::MAX {
-                continue;
-            }
-            let id = pieces.len() as u32;
-            let mut members = vec![seed as u32];
-            piece[seed] = id;
-            let mut next = 0;
-            while next < members.len() {
-                let k = members[next] as usize;
-                next += 1;
-                for (a, b) in edges_of(welded(&triangles[k])) {
-                    for &u in &around[&(a.min(b), a.max(b))] {
-                        let u = u as usize;
-                        if piece[u] != u32::MAX {
-                            continue;
-                        }
-                        if edges_of(welded(&triangles[u])).contains(&(a, b)) {
-                            triangles[u].swap(1, 2);
-                        }
-                        piece[u] = id;
-                        members.push(u as u32);
-                    }
-                }
-            }
-            pieces.push(members);
-        }
-        // Closed (watertight): every edge is used once in each direction by two triangles.
-        let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
-        for t in &triangles {
-            for e in edges_of(welded(t)) {
-                *edges.entry(e).or_insert(0) += 1;
-            }
-        }
-        let closed = edges.iter().all(|(&(a, b), &c)| c == 1 && edges.get(&(b, a)) == Some(&1));
-        // A closed piece wound clockwise seen from outside encloses a negative volume: turn its
-        // triangles round so its normals point out.
-        if closed {
-            for members in &pieces {
-                let volume: f64 = members
-                    .iter()
-                    .map(|&k| {
-                        let [a, b, c] = triangles[k as usize].map(|i| positions[i as usize].as_dvec3());
-                        a.dot(b.cross(c))
-                    })
-                    .sum();
-                if volume < 0.0 {
-                    for &k in members {
-                        triangles[k as usize].swap(1, 2);
-                    }
-                }
-            }
-        }
+        let closed = crate::topology::orient(&positions, &mut triangles);
         Ok(Mesh { bvh: Bvh::build(&boxes), positions, normals, uvs, triangles, bounds, closed })
     }
 
