@@ -9,8 +9,21 @@ use anyhow::{Context, Result, bail};
 
 use crate::{TaskArgs, build_renderer, parse_common, root};
 
-/// Seconds of render reported by `lancer` ("... in 0.312 s: 4.42 M rays ...") and its ray count.
-fn lancer_run(lancer: &Path, scene: &Path, threads: u32, extra: &[&str]) -> Result<(f64, f64)> {
+/// What one `lancer render` reported: render seconds, rays, scene loading seconds, peak memory
+/// (MB, where the system tells it), and the whole command's wall time.
+#[derive(Clone, Copy, Debug)]
+struct Run {
+    secs: f64,
+    rays: f64,
+    load: f64,
+    peak_mb: f64,
+    wall: f64,
+}
+
+/// Runs `lancer render SCENE --threads N -o tmp.png EXTRA...` and reads its summary line
+/// ("... in 0.312 s: 4.42 M rays ... (scene loaded in 0.010 s, peak memory 86.6 MB)").
+fn lancer_run(lancer: &Path, scene: &Path, threads: u32, extra: &[&str]) -> Result<Run> {
+    let start = std::time::Instant::now();
     let out = Command::new(lancer)
         .arg("render")
         .arg(scene)
@@ -19,14 +32,16 @@ fn lancer_run(lancer: &Path, scene: &Path, threads: u32, extra: &[&str]) -> Resu
         .args(extra)
         .output()
         .context("running lancer")?;
+    let wall = start.elapsed().as_secs_f64();
     let text = String::from_utf8_lossy(&out.stderr);
     if !out.status.success() {
         bail!("lancer failed: {text}");
     }
-    let secs = text.split(" in ").nth(1).and_then(|s| s.split(" s").next()).and_then(|s| s.parse().ok());
-    let rays = text.split(": ").nth(1).and_then(|s| s.split(" M rays").next()).and_then(|s| s.parse::<f64>().ok());
-    match (secs, rays) {
-        (Some(s), Some(r)) => Ok((s, r * 1e6)),
+    let after =
+        |key: &str, until: &str| -> Option<f64> { text.split(key).nth(1)?.split(until).next()?.trim().parse().ok() };
+    let peak_mb = after("peak memory ", " MB").unwrap_or(f64::NAN);
+    match (after(" in ", " s"), after(": ", " M rays"), after("scene loaded in ", " s")) {
+        (Some(secs), Some(rays), Some(load)) => Ok(Run { secs, rays: rays * 1e6, load, peak_mb, wall }),
         _ => bail!("could not read lancer's summary line: {text}"),
     }
 }
@@ -56,16 +71,11 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// The median render time of `runs` renders of `scene` on `threads` threads, and its ray count.
-fn median_run(lancer: &Path, scene: &Path, threads: u32, runs: usize) -> Result<(f64, f64)> {
-    let mut times = Vec::with_capacity(runs);
-    let mut rays = 0.0;
-    for _ in 0..runs {
-        let (t, r) = lancer_run(lancer, scene, threads, &[])?;
-        times.push(t);
-        rays = r;
-    }
-    Ok((median(times), rays))
+/// The run with the median render time of `runs` renders of `scene` on `threads` threads.
+fn median_run(lancer: &Path, scene: &Path, threads: u32, runs: usize, extra: &[&str]) -> Result<Run> {
+    let mut all = (0..runs.max(1)).map(|_| lancer_run(lancer, scene, threads, extra)).collect::<Result<Vec<_>>>()?;
+    all.sort_by(|a, b| a.secs.total_cmp(&b.secs));
+    Ok(all[all.len() / 2])
 }
 
 fn povray_installed() -> bool {
@@ -114,7 +124,22 @@ fn heightfield_obj(triangles: usize) -> String {
     s
 }
 
-/// `cargo xtask bench [--runs N]`.
+/// One target of the benchmark: what is measured, the bound, and whether it is met.
+struct Target {
+    what: &'static str,
+    measured: f64,
+    bound: f64,
+    at_most: bool,
+}
+
+impl Target {
+    fn met(&self) -> bool {
+        if self.at_most { self.measured <= self.bound } else { self.measured >= self.bound }
+    }
+}
+
+/// `cargo xtask bench [--runs N]`: prints the tables and the targets, and writes them as JSON to
+/// `target/bench/bench.json`.
 pub fn run(args: &[String]) -> Result<()> {
     let TaskArgs { options, filter } = parse_common(args, &["runs"])?;
     if let Some(f) = filter {
@@ -126,54 +151,158 @@ pub fn run(args: &[String]) -> Result<()> {
     let anchor = root().join("scenes/bench/anchor.toml");
     let pov = root().join("scenes/bench/anchor.pov");
     let has_pov = povray_installed();
+    let mut json = serde_json::Map::new();
+    let mut targets: Vec<Target> = Vec::new();
 
     println!(
         "Anchor scene (scenes/bench/anchor.toml vs anchor.pov), 1280x720, no anti-aliasing, depth 5, median of {runs} runs"
     );
     println!(
-        "{:<10} {:>12} {:>12} {:>10} {:>12} {:>14} {:>16}",
-        "threads", "lancer (s)", "M rays", "M rays/s", "ns per ray", "povray (s)", "povray / lancer"
+        "{:<8} {:>11} {:>8} {:>16} {:>11} {:>10} {:>11} {:>16}",
+        "threads",
+        "lancer (s)",
+        "M rays",
+        "M rays/thread-s",
+        "ns per ray",
+        "peak (MB)",
+        "povray (s)",
+        "povray / lancer"
     );
+    let mut anchor_rows = Vec::new();
+    let mut by_threads = Vec::new();
     for threads in [1u32, 2] {
-        let (t, rays) = median_run(&lancer, &anchor, threads, runs)?;
-        let (pov_t, ratio) = if has_pov {
-            let p = median((0..runs).map(|_| povray_run(&pov, 1280, 720, threads)).collect::<Result<Vec<_>>>()?);
-            (format!("{p:.3}"), format!("{:.2}x", p / t))
+        let r = median_run(&lancer, &anchor, threads, runs, &[])?;
+        let pov_t = if has_pov {
+            Some(median((0..runs).map(|_| povray_run(&pov, 1280, 720, threads)).collect::<Result<Vec<_>>>()?))
         } else {
-            ("-".into(), "-".into())
+            None
         };
         // Per-ray cost in thread-nanoseconds, comparable across thread counts and scenes.
-        let ns = threads as f64 * t * 1e9 / rays;
+        let ns = threads as f64 * r.secs * 1e9 / r.rays;
+        let per_thread = r.rays / 1e6 / r.secs / threads as f64;
         println!(
-            "{threads:<10} {t:>12.3} {:>12.2} {:>10.1} {ns:>12.1} {pov_t:>14} {ratio:>16}",
-            rays / 1e6,
-            rays / 1e6 / t
+            "{threads:<8} {:>11.3} {:>8.2} {per_thread:>16.1} {ns:>11.1} {:>10.1} {:>11} {:>16}",
+            r.secs,
+            r.rays / 1e6,
+            r.peak_mb,
+            pov_t.map_or("-".into(), |p| format!("{p:.3}")),
+            pov_t.map_or("-".into(), |p| format!("{:.2}x", p / r.secs)),
         );
+        anchor_rows.push(serde_json::json!({
+            "threads": threads, "lancer_s": r.secs, "rays": r.rays, "m_rays_per_thread_s": per_thread,
+            "ns_per_ray": ns, "peak_mb": r.peak_mb, "povray_s": pov_t, "ratio": pov_t.map(|p| p / r.secs),
+        }));
+        by_threads.push((r, pov_t));
     }
-    if !has_pov {
-        println!(
-            "POV-Ray is not installed, so the comparison was skipped: `apt-get install -y povray` (Debian) enables it."
-        );
-    } else {
+    json.insert("anchor".into(), anchor_rows.into());
+    let (one, two) = (by_threads[0].0, by_threads[1].0);
+    let scaling = one.secs / two.secs;
+    println!("1 -> 2 threads: {scaling:.2}x");
+    json.insert("thread_scaling".into(), scaling.into());
+    if let Some(p) = by_threads[1].1 {
+        targets.push(Target {
+            what: "anchor, 2 threads: POV-Ray trace time / Lancer render time",
+            measured: p / two.secs,
+            bound: 5.0,
+            at_most: false,
+        });
+    }
+    targets.push(Target {
+        what: "anchor, 2 threads: M rays per thread-second",
+        measured: two.rays / 1e6 / two.secs / 2.0,
+        bound: 18.0,
+        at_most: false,
+    });
+    targets.push(Target { what: "anchor: 1 -> 2 threads speed-up", measured: scaling, bound: 1.9, at_most: false });
+    if has_pov {
         println!(
             "(POV-Ray's figure is its own Trace Time, start-up excluded; Lancer's is its render time, scene loading and file writing excluded.)"
         );
+    } else {
+        println!(
+            "POV-Ray is not installed, so the comparison was skipped: `apt-get install -y povray` (Debian) enables it."
+        );
     }
+
+    // Per-term images: the 720p anchor with --aov (EXR and PNG per term, and beauty).
+    let aov_dir = std::env::temp_dir().join("lancer-bench-aov");
+    let aov = median_run(&lancer, &anchor, 2, runs, &["--aov", &aov_dir.display().to_string()])?;
+    // Writing the images: the command's extra wall time over the same render without them.
+    let writing = (aov.wall - aov.secs - aov.load).max(0.0) - (two.wall - two.secs - two.load).max(0.0);
+    println!(
+        "\nAnchor with every per-term image (--aov: EXR and PNG), 2 threads: render {:.3} s, writing the images {:.3} s, peak memory {:.1} MB",
+        aov.secs, writing, aov.peak_mb
+    );
+    json.insert(
+        "aov".into(),
+        serde_json::json!({ "render_s": aov.secs, "writing_s": writing, "peak_mb": aov.peak_mb }),
+    );
+    targets.push(Target {
+        what: "anchor with --aov: peak memory (MB)",
+        measured: aov.peak_mb,
+        bound: 100.0,
+        at_most: true,
+    });
+    targets.push(Target {
+        what: "anchor with --aov: writing time / render time",
+        measured: writing / aov.secs,
+        bound: 1.0,
+        at_most: true,
+    });
+
+    // Samples per pixel: time linear, memory flat.
+    println!("\nSamples per pixel (scenes/showcase.toml at 320x180, 2 threads, median of {})", runs.min(3));
+    println!("{:>8} {:>12} {:>12} {:>12}", "samples", "render (s)", "M rays", "peak (MB)");
+    let showcase = root().join("scenes/showcase.toml");
+    let mut spp_rows = Vec::new();
+    let mut spp = Vec::new();
+    for samples in [1u32, 16, 256] {
+        let n = samples.to_string();
+        let r =
+            median_run(&lancer, &showcase, 2, runs.min(3), &["--width", "320", "--height", "180", "--samples", &n])?;
+        println!("{samples:>8} {:>12.3} {:>12.2} {:>12.1}", r.secs, r.rays / 1e6, r.peak_mb);
+        spp_rows
+            .push(serde_json::json!({ "samples": samples, "render_s": r.secs, "rays": r.rays, "peak_mb": r.peak_mb }));
+        spp.push(r);
+    }
+    json.insert("samples".into(), spp_rows.into());
+    targets.push(Target {
+        what: "256 spp time / 16 spp time",
+        measured: spp[2].secs / spp[1].secs,
+        bound: 20.0,
+        at_most: true,
+    });
+    targets.push(Target {
+        what: "peak memory at 256 spp minus at 16 spp (MB)",
+        measured: spp[2].peak_mb - spp[1].peak_mb,
+        bound: 20.0,
+        at_most: true,
+    });
 
     println!("\nScaling with the object count (a grid of spheres over a floor, 640x360, 2 threads, median of {runs})");
     println!("{:>8} {:>12} {:>12} {:>14}", "spheres", "render (s)", "M rays", "ns per ray");
     let dir = std::env::temp_dir().join("lancer-bench-scenes");
     std::fs::create_dir_all(&dir)?;
+    let mut sphere_rows = Vec::new();
     for n in [10usize, 100, 1_000, 10_000] {
         let path = dir.join(format!("spheres-{n}.toml"));
         std::fs::write(&path, spheres_scene(n))?;
-        let (t, rays) = median_run(&lancer, &path, 2, runs)?;
+        let r = median_run(&lancer, &path, 2, runs, &[])?;
         // Two threads share the work: per-ray cost in thread-nanoseconds.
-        println!("{n:>8} {t:>12.3} {:>12.2} {:>14.1}", rays / 1e6, 2.0 * t * 1e9 / rays);
+        let ns = 2.0 * r.secs * 1e9 / r.rays;
+        println!("{n:>8} {:>12.3} {:>12.2} {ns:>14.1}", r.secs, r.rays / 1e6);
+        sphere_rows.push(serde_json::json!({ "spheres": n, "render_s": r.secs, "rays": r.rays, "ns_per_ray": ns }));
     }
 
+    json.insert("spheres".into(), sphere_rows.into());
+
     println!("\nScaling with the triangle count (a rippled height-field mesh, 640x360, 2 threads, median of {runs})");
-    println!("{:>10} {:>12} {:>12} {:>14}", "triangles", "render (s)", "M rays", "ns per ray");
+    println!(
+        "{:>10} {:>12} {:>12} {:>14} {:>10} {:>11}",
+        "triangles", "render (s)", "M rays", "ns per ray", "load (s)", "peak (MB)"
+    );
+    let mut mesh_rows = Vec::new();
+    let mut meshes = Vec::new();
     for n in [10_000usize, 100_000, 1_000_000] {
         let obj = dir.join(format!("field-{n}.obj"));
         std::fs::write(&obj, heightfield_obj(n))?;
@@ -187,8 +316,54 @@ pub fn run(args: &[String]) -> Result<()> {
                  material = {{ color = [0.4, 0.7, 0.5], diff = 0.8, spec = 0.3, shine = 0.9 }}\n"
             ),
         )?;
-        let (t, rays) = median_run(&lancer, &path, 2, runs)?;
-        println!("{n:>10} {t:>12.3} {:>12.2} {:>14.1}", rays / 1e6, 2.0 * t * 1e9 / rays);
+        let r = median_run(&lancer, &path, 2, runs, &[])?;
+        let ns = 2.0 * r.secs * 1e9 / r.rays;
+        println!("{n:>10} {:>12.3} {:>12.2} {ns:>14.1} {:>10.3} {:>11.1}", r.secs, r.rays / 1e6, r.load, r.peak_mb);
+        mesh_rows.push(serde_json::json!({
+            "triangles": n, "render_s": r.secs, "rays": r.rays, "ns_per_ray": ns, "load_s": r.load, "peak_mb": r.peak_mb,
+        }));
+        meshes.push((n, r, ns));
     }
+    // Memory per triangle: the growth of the peak from 10,000 to 1,000,000 triangles.
+    let (small, large) = (meshes[0], meshes[2]);
+    let per_triangle = (large.1.peak_mb - small.1.peak_mb) * 1e6 / (large.0 - small.0) as f64;
+    println!("memory per triangle (growth of the peak from 10k to 1M triangles): {per_triangle:.0} bytes");
+    json.insert("meshes".into(), mesh_rows.into());
+    json.insert("bytes_per_triangle".into(), per_triangle.into());
+    targets.push(Target { what: "1M triangles: ns per ray", measured: large.2, bound: 300.0, at_most: true });
+    targets.push(Target {
+        what: "1M triangles: loading with the BVH build (s)",
+        measured: large.1.load,
+        bound: 0.5,
+        at_most: true,
+    });
+    targets.push(Target {
+        what: "1M triangles: bytes per triangle",
+        measured: per_triangle,
+        bound: 120.0,
+        at_most: true,
+    });
+
+    println!("\nTargets");
+    for t in &targets {
+        println!(
+            "  {:<60} {:>9.2} {} {:<6} {}",
+            t.what,
+            t.measured,
+            if t.at_most { "<=" } else { ">=" },
+            t.bound,
+            if t.met() { "met" } else { "NOT MET" }
+        );
+    }
+    let rows: Vec<serde_json::Value> = targets
+        .iter()
+        .map(|t| serde_json::json!({ "what": t.what, "measured": t.measured, "bound": t.bound, "at_most": t.at_most, "met": t.met() }))
+        .collect();
+    json.insert("targets".into(), rows.into());
+    let dir = root().join("target/bench");
+    std::fs::create_dir_all(&dir)?;
+    let path = dir.join("bench.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&serde_json::Value::Object(json))?)?;
+    println!("\n(written as JSON to {})", path.display());
     Ok(())
 }

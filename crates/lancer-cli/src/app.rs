@@ -131,7 +131,9 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     let base = args.scene.as_ref().and_then(|p| p.parent()).map(Path::to_path_buf).unwrap_or_default();
     let resolve =
         |rel: &str| std::fs::read(base.join(rel)).map_err(|e| format!("reading {}: {e}", base.join(rel).display()));
+    let load_start = Instant::now();
     let loaded = lancer_scene::load_scene_with(&src, &name, registry, &resolve).map_err(anyhow::Error::msg)?;
+    let load_time = load_start.elapsed();
     let mut scene = loaded.scene;
     let mut pipeline = match &args.model {
         Some(p) => lancer_scene::load_model(&read(p, "model")?, &p.display().to_string(), registry)
@@ -212,7 +214,7 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     })?;
     if !args.quiet {
         eprintln!(
-            "rendered {name} at {}x{} ({} spp, {} terms) in {:.3} s: {:.2} M rays ({} camera, {} secondary, {} shadow), {:.1} M rays/s -> {}{}",
+            "rendered {name} at {}x{} ({} spp, {} terms) in {:.3} s: {:.2} M rays ({} camera, {} secondary, {} shadow), {:.1} M rays/s -> {}{} (scene loaded in {:.3} s{})",
             frame.width,
             frame.height,
             scene.image.samples,
@@ -224,10 +226,21 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
             frame.stats.shadow_rays,
             frame.stats.total() as f64 / 1e6 / elapsed.as_secs_f64().max(1e-9),
             args.output.display(),
-            args.aov.as_ref().map(|d| format!(" and {}/", d.display())).unwrap_or_default()
+            args.aov.as_ref().map(|d| format!(" and {}/", d.display())).unwrap_or_default(),
+            load_time.as_secs_f64(),
+            peak_memory().map(|b| format!(", peak memory {:.1} MB", b as f64 / 1e6)).unwrap_or_default()
         );
     }
     Ok(())
+}
+
+/// The most memory this process has held at once (its peak resident set), where the system
+/// tells it (Linux's `/proc/self/status`).
+fn peak_memory() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// One EXR and one PNG per term, the background layer when it is not black, and the beauty image.
