@@ -64,10 +64,10 @@ impl Bvh {
         }
         let mut items: Vec<Item> =
             bounds.iter().enumerate().map(|(i, &bounds)| Item { bounds, index: i as u32 }).collect();
-        let nodes = build(&mut items, 0, 0);
+        let mut nodes = vec![Node { bounds: Aabb::EMPTY, start: 0, count: 0 }; 2 * items.len() - 1];
+        let inner = build(&mut items, 0, 0, &mut nodes, 0);
         let bin = Binary { nodes, indices: items.into_iter().map(|i| i.index).collect() };
         // A 4-wide node replaces about three binary inner nodes.
-        let inner = bin.nodes.iter().filter(|n| n.count == 0).count();
         let mut nodes = Vec::with_capacity(inner / 3 + 1);
         if bin.nodes[0].count > 0 {
             // A single leaf: one slot of the root.
@@ -202,49 +202,31 @@ fn plan(items: &mut [Item], depth: usize) -> (Aabb, Option<usize>) {
     (node_bounds, Some(mid))
 }
 
-/// Builds the subtree over `items` (at `offset` in the whole index list) into `out`, one
-/// thread; returns its root's position in `out`.
-fn build_into(items: &mut [Item], offset: usize, depth: usize, out: &mut Vec<Node>) -> usize {
-    let (b, split) = plan(items, depth);
-    let node = out.len();
-    out.push(Node { bounds: b, start: offset as u32, count: items.len() as u32 });
-    if let Some(mid) = split {
-        let (left, right) = items.split_at_mut(mid);
-        build_into(left, offset, depth + 1, out);
-        let right = build_into(right, offset + mid, depth + 1, out);
-        out[node] = Node { bounds: b, start: right as u32, count: 0 };
-    }
-    node
-}
-
-/// Builds the subtree over `items` as its own node list (root first), splitting large ranges on
-/// two threads. The tree is the same whatever the number of threads.
-fn build(items: &mut [Item], offset: usize, depth: usize) -> Vec<Node> {
-    if items.len() < PARALLEL {
-        let mut out = Vec::with_capacity(2 * items.len());
-        build_into(items, offset, depth, &mut out);
-        return out;
-    }
+/// Builds the subtree over `items` (at `offset` in the whole index list) into `slots`, whose
+/// first slot (at `base` in the whole node list) becomes its root: a subtree over `k` items
+/// needs at most `2k − 1` slots, so the left subtree takes the slots after the root and the
+/// right one those from `2 · mid` on, and both sides build at once (large ranges on two
+/// threads) without copying. Unused slots stay unreferenced. The tree is the same whatever the
+/// number of threads. Returns the number of inner nodes.
+fn build(items: &mut [Item], offset: usize, depth: usize, slots: &mut [Node], base: usize) -> usize {
     let n = items.len();
     let (b, split) = plan(items, depth);
     let Some(mid) = split else {
-        return vec![Node { bounds: b, start: offset as u32, count: n as u32 }];
+        slots[0] = Node { bounds: b, start: offset as u32, count: n as u32 };
+        return 0;
     };
+    slots[0] = Node { bounds: b, start: (base + 2 * mid) as u32, count: 0 };
     let (l, r) = items.split_at_mut(mid);
-    let (left, right) = rayon::join(|| build(l, offset, depth + 1), || build(r, offset + mid, depth + 1));
-    let mut out = Vec::with_capacity(1 + left.len() + right.len());
-    out.push(Node { bounds: b, start: (1 + left.len()) as u32, count: 0 });
-    // Inner nodes name their right child by position: shift them by where their list lands.
-    for list in [left, right] {
-        let base = out.len() as u32;
-        out.extend(list.into_iter().map(|mut node| {
-            if node.count == 0 {
-                node.start += base;
-            }
-            node
-        }));
-    }
-    out
+    let (left_slots, right_slots) = slots[1..].split_at_mut(2 * mid - 1);
+    let (a, c) = if n >= PARALLEL {
+        rayon::join(
+            || build(l, offset, depth + 1, left_slots, base + 1),
+            || build(r, offset + mid, depth + 1, right_slots, base + 2 * mid),
+        )
+    } else {
+        (build(l, offset, depth + 1, left_slots, base + 1), build(r, offset + mid, depth + 1, right_slots, base + 2 * mid))
+    };
+    1 + a + c
 }
 
 impl Binary {
