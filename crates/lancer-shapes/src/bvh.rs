@@ -39,7 +39,13 @@ const INNER: u32 = u32::MAX;
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
     nodes: Vec<Node4>,
+    /// Item of each leaf position; empty once the caller stores its items in leaf order.
     indices: Vec<u32>,
+    /// Whether the caller stores its items in leaf order (see [`Bvh::into_leaf_order`]): a leaf's
+    /// positions are then its items.
+    ordered: bool,
+    /// Number of items.
+    items: usize,
 }
 
 /// The binary tree the SAH build makes, before it is collapsed.
@@ -77,17 +83,26 @@ impl Bvh {
         } else {
             bin.collapse(0, &mut nodes);
         }
-        Bvh { nodes, indices: bin.indices }
+        let items = bin.indices.len();
+        Bvh { nodes, indices: bin.indices, ordered: false, items }
     }
 
     /// Number of items.
     pub fn len(&self) -> usize {
-        self.indices.len()
+        self.items
     }
 
     /// Whether the hierarchy holds no item.
     pub fn is_empty(&self) -> bool {
-        self.indices.is_empty()
+        self.nodes.is_empty()
+    }
+
+    /// The items in leaf order (position → original item), for a caller that stores its items
+    /// in that order: from then on queries report positions, with no lookup per item and leaves
+    /// reading memory in order.
+    pub fn into_leaf_order(&mut self) -> Vec<u32> {
+        self.ordered = true;
+        std::mem::take(&mut self.indices)
     }
 }
 
@@ -318,9 +333,15 @@ impl Bvh {
             // Leaves now, nearest first; inner children onto the stack, farthest first.
             for &k in &order[..met] {
                 if node.count[k] != INNER && near[k] <= tmax {
-                    let start = node.child[k] as usize;
-                    for &i in &self.indices[start..start + node.count[k] as usize] {
-                        tmax = visit(i, tmax);
+                    let start = node.child[k];
+                    if self.ordered {
+                        for i in start..start + node.count[k] {
+                            tmax = visit(i, tmax);
+                        }
+                    } else {
+                        for &i in &self.indices[start as usize..(start + node.count[k]) as usize] {
+                            tmax = visit(i, tmax);
+                        }
                     }
                 }
             }
