@@ -71,7 +71,8 @@ impl Bvh {
         let mut items: Vec<Item> =
             bounds.iter().enumerate().map(|(i, &bounds)| Item { bounds, index: i as u32 }).collect();
         let mut nodes = vec![Node { bounds: Aabb::EMPTY, start: 0, count: 0 }; 2 * items.len() - 1];
-        let inner = build(&mut items, 0, 0, &mut nodes, 0);
+        let extent = Extent::of(&items);
+        let inner = build(&mut items, extent, 0, 0, &mut nodes, 0);
         let bin = Binary { nodes, indices: items.into_iter().map(|i| i.index).collect() };
         // A 4-wide node replaces about three binary inner nodes.
         let mut nodes = Vec::with_capacity(inner / 3 + 1);
@@ -157,54 +158,75 @@ impl Item {
     }
 }
 
-/// How the items of a range split: their bounds, and `None` for a leaf or `Some(mid)` after
-/// partitioning `items` in place (binned SAH along the widest axis of the centroids;
-/// deterministic: it depends only on the input order).
-fn plan(items: &mut [Item], depth: usize) -> (Aabb, Option<usize>) {
-    let node_bounds = items.iter().fold(Aabb::EMPTY, |a, i| a.union(i.bounds));
-    let cb = items.iter().fold(Aabb::EMPTY, |a, i| {
-        let c = i.centre();
-        a.union(Aabb { min: c, max: c })
-    });
-    let n = items.len();
-    let extent = cb.max - cb.min;
-    let axis = extent.max_position();
-    // Deeper than MAX_DEPTH (only adversarial inputs get there) the rest is one leaf, which
-    // bounds the traversal stack.
-    if n <= 1 || extent[axis] <= 0.0 || depth >= MAX_DEPTH {
-        return (node_bounds, None);
+/// The boxes of a range of items: of the items themselves, and of their centres.
+#[derive(Clone, Copy)]
+struct Extent {
+    bounds: Aabb,
+    centres: Aabb,
+}
+
+impl Extent {
+    const EMPTY: Extent = Extent { bounds: Aabb::EMPTY, centres: Aabb::EMPTY };
+
+    fn of(items: &[Item]) -> Extent {
+        items.iter().fold(Extent::EMPTY, |e, i| e.with(i))
     }
 
-    // Bin centroids along the widest axis and sweep for the cheapest SAH split.
-    let scale = BINS as f32 / extent[axis];
+    #[inline]
+    fn with(self, i: &Item) -> Extent {
+        let c = i.centre();
+        Extent { bounds: self.bounds.union(i.bounds), centres: self.centres.union(Aabb { min: c, max: c }) }
+    }
+
+    #[inline]
+    fn union(self, o: Extent) -> Extent {
+        Extent { bounds: self.bounds.union(o.bounds), centres: self.centres.union(o.centres) }
+    }
+}
+
+/// How the items of a range (whose extent is `extent`) split: `None` for a leaf, or
+/// `Some((mid, left, right))` after partitioning `items` in place, with each side's extent
+/// (binned SAH along the widest axis of the centres; one pass to bin, one to partition;
+/// deterministic: it depends only on the input order).
+fn plan(items: &mut [Item], extent: Extent, depth: usize) -> Option<(usize, Extent, Extent)> {
+    let n = items.len();
+    let cb = extent.centres;
+    let size = cb.max - cb.min;
+    let axis = size.max_position();
+    // Deeper than MAX_DEPTH (only adversarial inputs get there) the rest is one leaf, which
+    // bounds the traversal stack.
+    if n <= 1 || size[axis] <= 0.0 || depth >= MAX_DEPTH {
+        return None;
+    }
+
+    // Bin centres along the widest axis and sweep for the cheapest SAH split.
+    let scale = BINS as f32 / size[axis];
     let bin_of = |c: Vec3| (((c[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
-    let mut bins = [(Aabb::EMPTY, 0usize); BINS];
+    let mut bins = [(Extent::EMPTY, 0usize); BINS];
     for i in items.iter() {
         let b = &mut bins[bin_of(i.centre())];
-        b.0 = b.0.union(i.bounds);
+        b.0 = b.0.with(i);
         b.1 += 1;
     }
-    let mut right_cost = [0.0f32; BINS];
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    let mut right = [(Extent::EMPTY, 0usize); BINS];
+    let mut acc = (Extent::EMPTY, 0);
     for k in (1..BINS).rev() {
-        acc = acc.union(bins[k].0);
-        cnt += bins[k].1;
-        right_cost[k] = acc.half_area() * cnt as f32;
+        acc = (acc.0.union(bins[k].0), acc.1 + bins[k].1);
+        right[k] = acc;
     }
-    let (mut best, mut best_cost) = (0, f32::INFINITY);
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    let (mut best, mut best_cost, mut best_left) = (0, f32::INFINITY, Extent::EMPTY);
+    let mut acc = (Extent::EMPTY, 0);
     for k in 0..BINS - 1 {
-        acc = acc.union(bins[k].0);
-        cnt += bins[k].1;
-        let cost = acc.half_area() * cnt as f32 + right_cost[k + 1];
-        if cnt > 0 && cnt < n && cost < best_cost {
-            best = k + 1;
-            best_cost = cost;
+        acc = (acc.0.union(bins[k].0), acc.1 + bins[k].1);
+        let (r, rn) = right[k + 1];
+        let cost = acc.0.bounds.half_area() * acc.1 as f32 + r.bounds.half_area() * rn as f32;
+        if acc.1 > 0 && acc.1 < n && cost < best_cost {
+            (best, best_cost, best_left) = (k + 1, cost, acc.0);
         }
     }
-    let leaf_cost = node_bounds.half_area() * n as f32;
+    let leaf_cost = extent.bounds.half_area() * n as f32;
     if best == 0 || (n <= MAX_LEAF && best_cost >= leaf_cost) {
-        return (node_bounds, None);
+        return None;
     }
     // Partition in place, in one pass.
     let mut mid = 0;
@@ -214,7 +236,7 @@ fn plan(items: &mut [Item], depth: usize) -> (Aabb, Option<usize>) {
             mid += 1;
         }
     }
-    (node_bounds, Some(mid))
+    Some((mid, best_left, right[best].0))
 }
 
 /// Builds the subtree over `items` (at `offset` in the whole index list) into `slots`, whose
@@ -223,24 +245,19 @@ fn plan(items: &mut [Item], depth: usize) -> (Aabb, Option<usize>) {
 /// right one those from `2 · mid` on, and both sides build at once (large ranges on two
 /// threads) without copying. Unused slots stay unreferenced. The tree is the same whatever the
 /// number of threads. Returns the number of inner nodes.
-fn build(items: &mut [Item], offset: usize, depth: usize, slots: &mut [Node], base: usize) -> usize {
+fn build(items: &mut [Item], extent: Extent, offset: usize, depth: usize, slots: &mut [Node], base: usize) -> usize {
     let n = items.len();
-    let (b, split) = plan(items, depth);
-    let Some(mid) = split else {
+    let b = extent.bounds;
+    let Some((mid, le, re)) = plan(items, extent, depth) else {
         slots[0] = Node { bounds: b, start: offset as u32, count: n as u32 };
         return 0;
     };
     slots[0] = Node { bounds: b, start: (base + 2 * mid) as u32, count: 0 };
     let (l, r) = items.split_at_mut(mid);
     let (left_slots, right_slots) = slots[1..].split_at_mut(2 * mid - 1);
-    let (a, c) = if n >= PARALLEL {
-        rayon::join(
-            || build(l, offset, depth + 1, left_slots, base + 1),
-            || build(r, offset + mid, depth + 1, right_slots, base + 2 * mid),
-        )
-    } else {
-        (build(l, offset, depth + 1, left_slots, base + 1), build(r, offset + mid, depth + 1, right_slots, base + 2 * mid))
-    };
+    let mut left = move || build(l, le, offset, depth + 1, left_slots, base + 1);
+    let mut right = move || build(r, re, offset + mid, depth + 1, right_slots, base + 2 * mid);
+    let (a, c) = if n >= PARALLEL { rayon::join(left, right) } else { (left(), right()) };
     1 + a + c
 }
 
