@@ -143,6 +143,35 @@ impl Object {
 
     /// The world-space hit record of the crossing `c` of the world ray `o + t d`.
     pub fn hit(&self, index: u32, o: Vec3, d: Vec3, c: &ShapeHit) -> Hit {
+        let world = |point: Vec3, normal: Vec3, error: f32| Hit {
+            t: c.t,
+            object: index,
+            point,
+            local: self.object_from_world.transform_point3(point),
+            normal,
+            shading: normal,
+            uv: Vec2::ZERO,
+            error,
+            front: normal.dot(d) < 0.0,
+        };
+        let p = o.as_dvec3() + c.t as f64 * d.as_dvec3();
+        match self.fast {
+            // The same refinements as in object space, done where the fast test works: moved
+            // onto the surface in f64, so only the rounding to f32 remains (half an ulp of the
+            // point's largest coordinate).
+            Fast::Sphere { centre, radius2 } => {
+                let centre = centre.as_dvec3();
+                let u = (p - centre).normalize_or(glam::DVec3::Y);
+                let point = (centre + (radius2 as f64).sqrt() * u).as_vec3();
+                return world(point, u.as_vec3().normalize_or(Vec3::Y), f32::EPSILON * point.abs().max_element());
+            }
+            Fast::Plane { normal, offset } => {
+                let n = normal.as_dvec3();
+                let point = (p - n * (n.dot(p) - offset as f64)).as_vec3();
+                return world(point, normal, f32::EPSILON * point.abs().max_element());
+            }
+            Fast::None => {}
+        }
         let (oo, od) = self.to_object(o, d);
         let local: LocalSurface = self.shape.surface(oo, od, c);
         let normal = self.world_normal(local.normal);
