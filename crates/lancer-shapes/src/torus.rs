@@ -63,7 +63,18 @@ pub fn crossings(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> ([f32; 4
         }
     } else {
         let (s0, s1) = ((-r - p.y) / dd.y, (r - p.y) / dd.y);
-        if s0.max(s1) < 0.0 || s0.min(s1) > chord {
+        let (lo, hi) = (s0.min(s1).max(0.0), s0.max(s1).min(chord));
+        if lo > hi {
+            return (out, 0);
+        }
+        // Within the slab, a line that stays inside the hole (distance to the axis below
+        // 1 − r at both ends, so all along: the squared distance is convex) misses the tube.
+        let rho2 = |s: f64| {
+            let q = p + s * dd;
+            q.x * q.x + q.z * q.z
+        };
+        let hole = (1.0 - r) * (1.0 - r);
+        if rho2(lo) < hole && rho2(hi) < hole {
             return (out, 0);
         }
     }
