@@ -308,6 +308,14 @@ impl Meshes {
         }
         let bad = |msg: String| cx.err(path.span(), LoadErrorKind::Syntax(format!("mesh `{}`: {msg}", path.get_ref())));
         let bytes = resolve(path.get_ref()).map_err(bad)?;
+        // Corners indexed one way throughout: tobj would fill a corner's missing normal or
+        // texture coordinates with another corner's.
+        if let Some(line) = mixed_corners(&bytes) {
+            return Err(bad(format!(
+                "line {line} gives its corners normals or texture coordinates differently from the faces before it; \
+                 give every corner the same kind of indices (v, v/vt, v//vn or v/vt/vn)"
+            )));
+        }
         // Separate index lists (single_index would hash every corner): most files index normals
         // and texture coordinates like positions, and `one_index` merges them only otherwise.
         let options = tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() };
@@ -336,6 +344,29 @@ impl Meshes {
     }
 }
 
+/// The first line (from 1) of an OBJ file whose face corners are indexed differently (`v`,
+/// `v/vt`, `v//vn`, `v/vt/vn`) from the first face's, if any.
+fn mixed_corners(obj: &[u8]) -> Option<usize> {
+    let kind = |corner: &[u8]| {
+        let mut parts = corner.split(|&b| b == b'/');
+        parts.next();
+        let vt = parts.next().is_some_and(|p| !p.is_empty());
+        let vn = parts.next().is_some_and(|p| !p.is_empty());
+        (vt, vn)
+    };
+    let mut first = None;
+    for (n, line) in obj.split(|&b| b == b'\n').enumerate() {
+        let Some(rest) = line.strip_prefix(b"f ").or_else(|| line.strip_prefix(b"f\t")) else { continue };
+        for corner in rest.split(|b| b.is_ascii_whitespace()).filter(|c| !c.is_empty()) {
+            let k = kind(corner);
+            if *first.get_or_insert(k) != k {
+                return Some(n + 1);
+            }
+        }
+    }
+    None
+}
+
 /// A mesh with one index per corner for positions, normals (with `smooth`) and texture
 /// coordinates (with `textured`): borrowed as it is when the file indexes them alike, else with a
 /// vertex for each distinct combination (found by sorting the corners, not hashing them).
@@ -359,7 +390,9 @@ fn one_index(m: &tobj::Mesh, smooth: bool, textured: bool) -> Result<std::borrow
         let (p, n, t) = key(k as usize);
         if last != Some((p, n, t)) {
             last = Some((p, n, t));
-            let get = |v: &[f32], i: u32, w: usize| v.get(i as usize * w..(i as usize + 1) * w).map(<[f32]>::to_vec);
+            fn get(v: &[f32], i: u32, w: usize) -> Option<&[f32]> {
+                v.get(i as usize * w..(i as usize + 1) * w)
+            }
             out.positions.extend(get(&m.positions, p, 3).ok_or("a face names a vertex that does not exist")?);
             if smooth {
                 out.normals.extend(get(&m.normals, n, 3).ok_or("a face names a normal that does not exist")?);

@@ -345,3 +345,31 @@ fn meshes_load_through_the_resolver_and_bad_files_are_located_errors() {
     let src = format!("{CAMERA}[[objects]]\nshape = \"cube\"\npath = \"x.obj\"\n");
     assert!(err(&src).to_string().contains("`path` belongs to a mesh; a cube has none"));
 }
+
+/// Loads a scene whose one object is the mesh `obj` (given as the file `m.obj`).
+fn load_mesh(obj: &str) -> Result<crate::Loaded, crate::LoadError> {
+    let src = format!("{CAMERA}[[objects]]\nshape = \"mesh\"\npath = \"m.obj\"\n");
+    let resolve = |_: &str| Ok(obj.as_bytes().to_vec());
+    crate::load_scene_with(&src, "s.toml", &Registry::with_builtins(), &resolve)
+}
+
+#[test]
+fn regression_faces_that_mix_corner_kinds_are_refused() {
+    // With separate index lists, tobj fills a corner's missing normal from another corner's: a
+    // file mixing `f 1//1 ...` and `f 4 5 6` would load with made-up normals.
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 3 4\n";
+    let e = load_mesh(obj).err().expect("refused");
+    assert!(e.to_string().contains("line 7 gives its corners normals or texture coordinates differently"), "{e}");
+}
+
+#[test]
+fn normals_indexed_apart_from_positions_load_as_a_smooth_mesh() {
+    // A square of two triangles whose corners share positions but take different normals: four
+    // positions, two normals, five distinct corners (position, normal).
+    let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 -1\nf 1//1 2//1 3//1\nf 1//2 3//1 4//2\n";
+    let loaded = load_mesh(obj).unwrap_or_else(|e| panic!("{e}"));
+    let shapes: Vec<Shape> = loaded.scene.world.query::<&Shape>().iter().cloned().collect();
+    let Shape::Mesh(m) = &shapes[0] else { panic!("a mesh") };
+    assert_eq!(m.triangle_count(), 2);
+    assert!(m.is_smooth());
+}

@@ -54,6 +54,9 @@ pub fn render_prepared(
     let mut layers: Vec<Layer> =
         names.into_iter().map(|name| Layer { name, pixels: vec![Vec3::ZERO; (width * height) as usize] }).collect();
 
+    if width == 0 || height == 0 {
+        return Frame { width, height, layers, stats: RenderStats::default() };
+    }
     let band_len = (TILE * width) as usize;
     let bands_count = height.div_ceil(TILE) as usize;
     let tiles_count = bands_count * width.div_ceil(TILE) as usize;

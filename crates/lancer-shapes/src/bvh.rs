@@ -4,7 +4,7 @@
 //! drops those that begin beyond the best hit found.
 
 use glam::Vec3;
-use wide::{CmpLe, f32x4};
+use wide::{CmpGe, CmpLe, f32x4};
 
 use crate::Aabb;
 
@@ -124,20 +124,24 @@ impl Node4 {
 
     /// The entry distance of the ray into each child's box within `[tmin, tmax]` (`o` and
     /// `inv_d` splatted per axis), and a bit mask of the children it meets: four slab tests in
-    /// one pass of SIMD arithmetic.
+    /// one pass of SIMD arithmetic. On an axis the ray does not move along (`flat`), a child is
+    /// met where the origin lies within its slab, faces included.
     #[inline]
-    fn enter(&self, o: &[f32x4; 3], inv_d: &[f32x4; 3], tmin: f32, tmax: f32) -> ([f32; 4], i32) {
+    fn enter(&self, o: &[f32x4; 3], inv_d: &[f32x4; 3], flat: [bool; 3], tmin: f32, tmax: f32) -> ([f32; 4], i32) {
         let mut near = f32x4::splat(tmin);
         let mut far = f32x4::splat(tmax);
+        let mut inside = self.used;
         for axis in 0..3 {
+            if flat[axis] {
+                inside &= (self.min[axis].cmp_le(o[axis]) & self.max[axis].cmp_ge(o[axis])).move_mask();
+                continue;
+            }
             let a = (self.min[axis] - o[axis]) * inv_d[axis];
             let b = (self.max[axis] - o[axis]) * inv_d[axis];
-            // A NaN (0 · ∞ on a slab's own plane) loses to the other operand in `fast_max` and
-            // `fast_min` taken in this order, so the bound is kept and such rays stay in.
             near = a.fast_min(b).fast_max(near);
             far = a.fast_max(b).fast_min(far);
         }
-        (near.to_array(), near.cmp_le(far).move_mask() & self.used)
+        (near.to_array(), near.cmp_le(far).move_mask() & inside)
     }
 }
 
@@ -320,6 +324,10 @@ impl Bvh {
         if self.nodes.is_empty() {
             return tmax;
         }
+        // Axes the ray does not move along (or so little that 1/d would overflow) are tested by
+        // position instead of by distance: no 0 · ∞ in the slab arithmetic, and a ray lying
+        // exactly on a box's face meets the box, whichever face, on every CPU.
+        let flat = d.abs().cmplt(Vec3::splat(f32::MIN_POSITIVE)).into();
         let inv = d.recip();
         let o = [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)];
         let inv_d = [f32x4::splat(inv.x), f32x4::splat(inv.y), f32x4::splat(inv.z)];
@@ -332,7 +340,7 @@ impl Bvh {
                 continue;
             }
             let node = &self.nodes[index as usize];
-            let (near, mask) = node.enter(&o, &inv_d, tmin, tmax);
+            let (near, mask) = node.enter(&o, &inv_d, flat, tmin, tmax);
             // The children met, nearest first (insertion order on ties: slot order).
             let mut order = [0usize; 4];
             let mut met = 0;
@@ -375,6 +383,24 @@ impl Bvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_ray_along_a_box_face_is_inside_it_on_either_face() {
+        // Axis-parallel rays lying exactly on the min and on the max face of a box: both meet
+        // it (with a direction component of 0, a 1/d of ∞ would make 0 · ∞ there).
+        let boxes = [Aabb { min: Vec3::ZERO, max: Vec3::ONE }, Aabb { min: Vec3::splat(5.0), max: Vec3::splat(6.0) }];
+        let bvh = Bvh::build(&boxes);
+        for o in
+            [Vec3::new(0.0, 0.5, -1.0), Vec3::new(1.0, 0.5, -1.0), Vec3::new(0.5, 0.0, -1.0), Vec3::new(0.5, 1.0, -1.0)]
+        {
+            let mut seen = false;
+            bvh.traverse(o, Vec3::Z, f32::INFINITY, |i, tmax| {
+                seen |= i == 0;
+                tmax
+            });
+            assert!(seen, "a ray along the face through {o} misses the box");
+        }
+    }
 
     #[test]
     fn a_degenerate_hierarchy_stays_within_the_traversal_stack() {

@@ -73,10 +73,12 @@ impl Object {
         let fast = match shape {
             Shape::Sphere => {
                 let (lx, ly, lz) = (m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
-                let uniform = (lx - ly).abs() <= 1e-6 * lx && (lx - lz).abs() <= 1e-6 * lx;
+                // Uniform to rounding (well under the hit's error bound), else the general path.
+                let tol = 4.0 * f32::EPSILON;
+                let uniform = (lx - ly).abs() <= tol * lx && (lx - lz).abs() <= tol * lx;
                 let orthogonal = [m.x_axis.dot(m.y_axis), m.y_axis.dot(m.z_axis), m.z_axis.dot(m.x_axis)]
                     .iter()
-                    .all(|c| c.abs() <= 1e-6 * lx * lx);
+                    .all(|c| c.abs() <= tol * lx * lx);
                 if uniform && orthogonal { Fast::Sphere { centre, radius2: lx * lx } } else { Fast::None }
             }
             Shape::Plane => {
@@ -143,11 +145,11 @@ impl Object {
 
     /// The world-space hit record of the crossing `c` of the world ray `o + t d`.
     pub fn hit(&self, index: u32, o: Vec3, d: Vec3, c: &ShapeHit) -> Hit {
-        let world = |point: Vec3, normal: Vec3, error: f32| Hit {
+        let world = |point: Vec3, local: Vec3, normal: Vec3, error: f32| Hit {
             t: c.t,
             object: index,
             point,
-            local: self.object_from_world.transform_point3(point),
+            local,
             normal,
             shading: normal,
             uv: Vec2::ZERO,
@@ -162,13 +164,24 @@ impl Object {
             Fast::Sphere { centre, radius2 } => {
                 let centre = centre.as_dvec3();
                 let u = (p - centre).normalize_or(glam::DVec3::Y);
-                let point = (centre + (radius2 as f64).sqrt() * u).as_vec3();
-                return world(point, u.as_vec3().normalize_or(Vec3::Y), f32::EPSILON * point.abs().max_element());
+                let radius = (radius2 as f64).sqrt();
+                let point = (centre + radius * u).as_vec3();
+                // The object-space point from the offset to the centre, not from the rounded
+                // world point: patterns stay exact on a small sphere far from the origin.
+                let local = self.object_from_world.transform_vector3((radius * u).as_vec3());
+                return world(
+                    point,
+                    local,
+                    u.as_vec3().normalize_or(Vec3::Y),
+                    f32::EPSILON * point.abs().max_element(),
+                );
             }
             Fast::Plane { normal, offset } => {
                 let n = normal.as_dvec3();
                 let point = (p - n * (n.dot(p) - offset as f64)).as_vec3();
-                return world(point, normal, f32::EPSILON * point.abs().max_element());
+                // On the plane: y is 0 in its own space, exactly, for the checker's sake.
+                let local = self.object_from_world.transform_point3(point) * Vec3::new(1.0, 0.0, 1.0);
+                return world(point, local, normal, f32::EPSILON * point.abs().max_element());
             }
             Fast::None => {}
         }

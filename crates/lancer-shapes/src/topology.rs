@@ -8,8 +8,8 @@ use glam::Vec3;
 const NONE: u32 = u32::MAX;
 
 /// Turns the triangles of each connected piece to one winding (a neighbour whose shared edge
-/// runs the same way is turned round: files often mix windings), then each closed piece that
-/// encloses a negative volume inside out, so normals point out. Returns whether the mesh is
+/// runs the same way is turned round: files often mix windings), then a closed mesh that
+/// encloses a negative volume as a whole inside out, so normals point out. Returns whether the mesh is
 /// closed: every edge shared by exactly two triangles, running opposite ways. A piece that cannot
 /// be oriented (a Möbius strip) is left open.
 pub(crate) fn orient(positions: &[Vec3], triangles: &mut [[u32; 3]]) -> bool {
@@ -59,6 +59,7 @@ pub(crate) fn orient(positions: &[Vec3], triangles: &mut [[u32; 3]]) -> bool {
     let mut consistent = true;
     let mut queue: Vec<u32> = Vec::new();
     let mut pieces = 0u32;
+    let mut total_volume = 0.0f64;
     for seed in 0..triangles.len() {
         if piece[seed] != NONE {
             continue;
@@ -97,26 +98,19 @@ pub(crate) fn orient(positions: &[Vec3], triangles: &mut [[u32; 3]]) -> bool {
             let [a, b, c] = triangles[k as usize].map(|i| positions[i as usize].as_dvec3());
             volume += a.dot(b.cross(c));
         }
-        // Turned round only if the whole mesh is closed (checked below); remember the sign.
-        if volume < 0.0 {
-            for &k in &queue {
-                piece[k as usize] = id | FLIP;
-            }
-        }
+        total_volume += volume;
     }
     let closed = manifold && consistent && neighbours.iter().all(|n| !n.contains(&NONE));
-    if closed {
-        for (t, p) in triangles.iter_mut().zip(&piece) {
-            if p & FLIP != 0 {
-                t.swap(1, 2);
-            }
+    // Each piece keeps the winding of the triangle it was walked from (the file's intent: the
+    // inner wall of a hollow object faces its cavity); a closed mesh whose total volume is
+    // negative is inside out as a whole and is turned round.
+    if closed && total_volume < 0.0 {
+        for t in triangles.iter_mut() {
+            t.swap(1, 2);
         }
     }
     closed
 }
-
-/// Marks a piece to turn round in `orient` (piece ids stay far below it).
-const FLIP: u32 = 1 << 31;
 
 /// For every vertex, the first vertex at exactly the same position: a texture seam (the same
 /// point with two sets of texture coordinates) does not open the mesh.
@@ -154,6 +148,25 @@ mod tests {
         assert!(orient(&p, &mut t));
         let volume: f32 = t.iter().map(|t| p[t[0] as usize].dot(p[t[1] as usize].cross(p[t[2] as usize]))).sum();
         assert!(volume > 0.0, "outward: {t:?}");
+    }
+
+    #[test]
+    fn a_hollow_shell_keeps_its_inner_wall_facing_the_cavity() {
+        // Two tetrahedra, one inside the other; the inner one wound to face inwards (a cavity).
+        let outer = [
+            Vec3::new(-3.0, -3.0, -3.0),
+            Vec3::new(6.0, -3.0, -3.0),
+            Vec3::new(-3.0, 6.0, -3.0),
+            Vec3::new(-3.0, -3.0, 6.0),
+        ];
+        let inner = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+        let p: Vec<Vec3> = outer.iter().chain(&inner).copied().collect();
+        let out_faces = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        let in_faces = out_faces.map(|[a, b, c]| [a + 4, c + 4, b + 4]);
+        let mut t: Vec<[u32; 3]> = out_faces.iter().chain(&in_faces).copied().collect();
+        let before = t.clone();
+        assert!(orient(&p, &mut t));
+        assert_eq!(t, before, "both walls were already right");
     }
 
     #[test]
