@@ -88,7 +88,7 @@ fn octahedron_obj() -> String {
 }
 
 /// A test scene with every kind of surface (plane, spheres opaque and glass, cube, cylinder, cone,
-/// torus, a flat mesh), placed by `world = s · p + offset`.
+/// torus, a flat mesh, a CSG difference), placed by `world = s · p + offset`.
 fn placed_scene(s: f64, offset: DVec3, width: u32) -> String {
     let at = |p: [f64; 3]| {
         let q = DVec3::from(p) * s + offset;
@@ -167,6 +167,15 @@ path = "octahedron.obj"
 material = "matte"
 scale = {r06}
 translate = {mesh}
+[[objects]]
+shape = "csg"
+op = "difference"
+a = {{ shape = "cube" }}
+b = {{ shape = "sphere", scale = 1.3 }}
+material = "matte"
+scale = {r05}
+rotate = [0, 40, 0]
+translate = {csg}
 "#,
         h = width * 9 / 16,
         from = at([0.0, 2.5, -8.0]),
@@ -180,6 +189,7 @@ translate = {mesh}
         cone = at([0.3, 0.5, 1.5]),
         torus = at([-0.2, 1.2, 2.5]),
         mesh = at([2.9, 1.6, 3.0]),
+        csg = at([-2.4, 0.5, -0.2]),
         r10 = k(1.0),
         r07 = k(0.7),
         r05 = k(0.5),
