@@ -50,6 +50,9 @@ enum AovFormat {
     Both,
 }
 
+/// The default of `--max-file-size`, in MB.
+const MAX_FILE_MB: u64 = 1024;
+
 #[derive(Args, Default)]
 struct RenderArgs {
     /// Scene file (TOML); the embedded showcase when absent.
@@ -91,6 +94,9 @@ struct RenderArgs {
     /// No progress bar or summary line.
     #[arg(short, long)]
     quiet: bool,
+    /// Largest file (scene, model, mesh or texture) Lancer will read, in MB.
+    #[arg(long, value_name = "MB", default_value_t = MAX_FILE_MB, value_parser = clap::value_parser!(u64).range(1..))]
+    max_file_size: u64,
 }
 
 /// Runs the `lancer` command line (`std::env::args`) with `registry`'s terms and shadow models;
@@ -107,7 +113,10 @@ pub fn main_with(registry: Registry) -> ExitCode {
 
 fn run(cli: Cli, registry: &Registry) -> Result<()> {
     match cli.command {
-        None => render(registry, RenderArgs { output: "render.png".into(), ..RenderArgs::default() }),
+        None => render(
+            registry,
+            RenderArgs { output: "render.png".into(), max_file_size: MAX_FILE_MB, ..RenderArgs::default() },
+        ),
         Some(Command::Render(args)) => render(registry, args),
         Some(Command::Terms) => {
             print!("{}", crate::listing::terms(registry));
@@ -116,27 +125,44 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
     }
 }
 
-fn read(path: &Path, what: &str) -> Result<String> {
-    std::fs::read_to_string(path).with_context(|| format!("reading {what} {}", path.display()))
+/// The bytes of the file `path` (a `what`: scene, model, file), if it is a regular file (not a
+/// device, a pipe or a folder, which could be read without end) of at most `limit` MB.
+fn read_bytes(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, String> {
+    let meta = std::fs::metadata(path).map_err(|e| format!("reading {what} {}: {e}", path.display()))?;
+    if !meta.is_file() {
+        return Err(format!("{what} {} is not a regular file", path.display()));
+    }
+    if meta.len() > limit * 1_000_000 {
+        return Err(format!(
+            "{what} {} is {:.0} MB, over the {limit} MB limit (raise it with --max-file-size)",
+            path.display(),
+            meta.len() as f64 / 1e6
+        ));
+    }
+    std::fs::read(path).map_err(|e| format!("reading {what} {}: {e}", path.display()))
+}
+
+fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
+    let bytes = read_bytes(path, what, limit).map_err(anyhow::Error::msg)?;
+    String::from_utf8(bytes).with_context(|| format!("reading {what} {}: not UTF-8 text", path.display()))
 }
 
 fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     // Check every output path before the (long) render, so a typo costs nothing.
     let format = Format::of(&args.output)?;
     let (src, name) = match &args.scene {
-        Some(p) => (read(p, "scene")?, p.display().to_string()),
+        Some(p) => (read(p, "scene", args.max_file_size)?, p.display().to_string()),
         None => (DEFAULT_SCENE.to_owned(), DEFAULT_SCENE_NAME.to_owned()),
     };
     // Files a scene refers to (textures) are relative to the scene file's folder.
     let base = args.scene.as_ref().and_then(|p| p.parent()).map(Path::to_path_buf).unwrap_or_default();
-    let resolve =
-        |rel: &str| std::fs::read(base.join(rel)).map_err(|e| format!("reading {}: {e}", base.join(rel).display()));
+    let resolve = |rel: &str| read_bytes(&base.join(rel), "file", args.max_file_size);
     let load_start = Instant::now();
     let loaded = lancer_scene::load_scene_with(&src, &name, registry, &resolve).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
     let mut scene = loaded.scene;
     let mut pipeline = match &args.model {
-        Some(p) => lancer_scene::load_model(&read(p, "model")?, &p.display().to_string(), registry)
+        Some(p) => lancer_scene::load_model(&read(p, "model", args.max_file_size)?, &p.display().to_string(), registry)
             .map_err(anyhow::Error::msg)?,
         None => loaded.pipeline,
     };

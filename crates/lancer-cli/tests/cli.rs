@@ -208,3 +208,45 @@ fn terms_flag_picks_terms_and_variants() {
     assert!(stderr(&o).contains("unknown term `specullar` (did you mean `specular`?)"), "{}", stderr(&o));
     assert!(!dir.path().join("x.png").exists());
 }
+
+#[test]
+fn regression_a_mesh_path_that_is_not_a_regular_file_is_refused_at_once() {
+    // `/dev/zero` as a mesh was read without end (10 GB after 20 s).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("zero.toml"),
+        "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n[[objects]]\nshape = \"mesh\"\npath = \"/dev/zero\"\n",
+    )
+    .unwrap();
+    let o = lancer(dir.path(), &["render", "zero.toml", "-o", "z.png"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("zero.toml:6:8: mesh `/dev/zero`: file /dev/zero is not a regular file"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(files(dir.path()), ["zero.toml"], "no output file");
+}
+
+#[test]
+fn files_over_the_size_limit_are_refused_with_the_figure_and_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("big.obj"), "# padding\n".repeat(300_000)).unwrap();
+    std::fs::write(
+        dir.path().join("s.toml"),
+        "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n[[objects]]\nshape = \"mesh\"\npath = \"big.obj\"\n",
+    )
+    .unwrap();
+    let o = lancer(dir.path(), &["render", "s.toml", "-o", "s.png", "--max-file-size", "2"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("file big.obj is 3 MB, over the 2 MB limit (raise it with --max-file-size)"),
+        "{}",
+        stderr(&o)
+    );
+    // The scene file itself is checked the same way.
+    let o = lancer(dir.path(), &["render", "/dev/zero", "-o", "s.png"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("scene /dev/zero is not a regular file"), "{}", stderr(&o));
+    assert_eq!(files(dir.path()), ["big.obj", "s.toml"], "no output file");
+}
