@@ -1,4 +1,4 @@
-//! Axis-aligned bounding boxes and the ray–box slab test.
+//! Axis-aligned bounding boxes (the ray–box slab test is in `bvh.rs`, four boxes at a time).
 
 use glam::{Affine3A, Vec3};
 
@@ -47,23 +47,5 @@ impl Aabb {
             out = out.union(Aabb { min: p, max: p });
         }
         out
-    }
-
-    /// Entry distance of the ray `o + t d` (with `inv_d = 1 / d`) if it meets the box within
-    /// `[0, tmax]`.
-    #[inline]
-    pub fn hit(&self, o: Vec3, inv_d: Vec3, tmax: f32) -> Option<f32> {
-        self.hit_range(o, inv_d, 0.0, tmax)
-    }
-
-    /// Entry distance if the ray meets the box within `[tmin, tmax]`.
-    #[inline]
-    pub fn hit_range(&self, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
-        let t0 = (self.min - o) * inv_d;
-        let t1 = (self.max - o) * inv_d;
-        // min/max ignore a NaN operand (0 · ∞ on a slab's own plane), which keeps such rays in.
-        let near = t0.min(t1).max_element().max(tmin);
-        let far = t0.max(t1).min_element().min(tmax);
-        (near <= far).then_some(near)
     }
 }
