@@ -60,7 +60,7 @@ const MAX_LEAF: usize = 4;
 /// at most three entries on the traversal stack.
 const MAX_DEPTH: usize = 64;
 /// The traversal stack's size: room for three entries per level and the root.
-const STACK: usize = 3 * MAX_DEPTH + 1;
+const STACK: usize = 3 * MAX_DEPTH + 4;
 
 impl Bvh {
     /// Builds the hierarchy over `bounds` (item `i` has `bounds[i]`).
@@ -331,23 +331,38 @@ impl Bvh {
         let inv = d.recip();
         let o = [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)];
         let inv_d = [f32x4::splat(inv.x), f32x4::splat(inv.y), f32x4::splat(inv.z)];
-        // (node, entry distance), at most three per level of a tree at most MAX_DEPTH deep; an
-        // `ArrayVec`, so no memory to clear per query.
-        let mut stack: arrayvec::ArrayVec<(u32, f32), STACK> = arrayvec::ArrayVec::new();
-        stack.push((0, tmin));
-        while let Some((index, entry)) = stack.pop() {
+        // (child, its item count or INNER, entry distance): children are pushed farthest first,
+        // so they are visited strictly nearest first, leaves included; at most three entries
+        // per level of a tree at most MAX_DEPTH deep stay behind. An `ArrayVec`: no memory to
+        // clear per query.
+        let mut stack: arrayvec::ArrayVec<(u32, u32, f32), STACK> = arrayvec::ArrayVec::new();
+        stack.push((0, INNER, tmin));
+        while let Some((child, count, entry)) = stack.pop() {
             if entry > tmax {
                 continue;
             }
-            let node = &self.nodes[index as usize];
+            if count != INNER {
+                if self.ordered {
+                    for i in child..child + count {
+                        tmax = visit(i, tmax);
+                    }
+                } else {
+                    for &i in &self.indices[child as usize..(child + count) as usize] {
+                        tmax = visit(i, tmax);
+                    }
+                }
+                continue;
+            }
+            let node = &self.nodes[child as usize];
             let (near, mask) = node.enter(&o, &inv_d, flat, tmin, tmax);
-            // The children met, nearest first (insertion order on ties: slot order).
+            // The children met, farthest first (ties: later slot first, so earlier slots are
+            // visited first).
             let mut order = [0usize; 4];
             let mut met = 0;
             for k in 0..4 {
                 if mask & (1 << k) != 0 {
                     let mut at = met;
-                    while at > 0 && near[order[at - 1]] > near[k] {
+                    while at > 0 && near[order[at - 1]] <= near[k] {
                         order[at] = order[at - 1];
                         at -= 1;
                     }
@@ -355,25 +370,8 @@ impl Bvh {
                     met += 1;
                 }
             }
-            // Leaves now, nearest first; inner children onto the stack, farthest first.
             for &k in &order[..met] {
-                if node.count[k] != INNER && near[k] <= tmax {
-                    let start = node.child[k];
-                    if self.ordered {
-                        for i in start..start + node.count[k] {
-                            tmax = visit(i, tmax);
-                        }
-                    } else {
-                        for &i in &self.indices[start as usize..(start + node.count[k]) as usize] {
-                            tmax = visit(i, tmax);
-                        }
-                    }
-                }
-            }
-            for &k in order[..met].iter().rev() {
-                if node.count[k] == INNER && near[k] <= tmax {
-                    stack.push((node.child[k], near[k]));
-                }
+                stack.push((node.child[k], node.count[k], near[k]));
             }
         }
         tmax
