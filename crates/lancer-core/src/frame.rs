@@ -62,7 +62,7 @@ pub struct Frame {
 impl Frame {
     /// The beauty image: the sum of every layer, in layer order, in linear float.
     pub fn beauty(&self) -> Vec<Vec3> {
-        let mut out = vec![Vec3::ZERO; (self.width * self.height) as usize];
+        let mut out: Vec<Vec3> = bytemuck::zeroed_vec((self.width * self.height) as usize);
         for layer in &self.layers {
             for (o, p) in out.iter_mut().zip(&layer.pixels) {
                 *o += *p;

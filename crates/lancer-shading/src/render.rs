@@ -52,7 +52,9 @@ pub fn render_prepared(
     let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
     names.push(BACKGROUND.to_owned());
     let mut layers: Vec<Layer> =
-        names.into_iter().map(|name| Layer { name, pixels: vec![Vec3::ZERO; (width * height) as usize] }).collect();
+        // Zeroed by the system, page by page as the bands first write them: no pass over the
+        // whole frame before the render.
+        names.into_iter().map(|name| Layer { name, pixels: bytemuck::zeroed_vec((width * height) as usize) }).collect();
 
     if width == 0 || height == 0 {
         return Frame { width, height, layers, stats: RenderStats::default() };
