@@ -102,6 +102,14 @@ struct RenderArgs {
 /// Runs the `lancer` command line (`std::env::args`) with `registry`'s terms and shadow models;
 /// errors are printed on stderr. Call it from `main` after registering your own terms.
 pub fn main_with(registry: Registry) -> ExitCode {
+    // Ctrl-C: stop at once, leaving no temporary file behind (finished files are whole: they
+    // are renamed into place only once written). A second handler cannot be set (a host
+    // program may have its own): then the default behaviour stays.
+    let _ = ctrlc::set_handler(|| {
+        crate::output::remove_temporaries();
+        eprintln!("interrupted");
+        std::process::exit(130);
+    });
     match run(Cli::parse(), &registry) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -206,7 +214,7 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
         );
     }
     if let Some(dir) = &args.aov {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating AOV directory {}", dir.display()))?;
+        crate::output::create_output_dir(dir).context("creating the AOV directory")?;
     }
 
     let pool = rayon::ThreadPoolBuilder::new()

@@ -92,12 +92,47 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     atomically(path, |f| Ok(f.write_all(bytes)?))
 }
 
+/// The temporary files being written now, removed by [`remove_temporaries`] when the user
+/// interrupts the program.
+static TEMPORARIES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Folders this run created for its output, removed (when still empty) on an interrupt.
+static CREATED_DIRS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Creates the folder `dir` for output (and its parents), remembering it if it is new, so an
+/// interrupt leaves no empty folder behind.
+pub fn create_output_dir(dir: &Path) -> Result<()> {
+    let new = !dir.exists();
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    if new {
+        CREATED_DIRS.lock().unwrap_or_else(|e| e.into_inner()).push(dir.to_path_buf());
+    }
+    Ok(())
+}
+
+/// Removes every temporary file being written and every output folder this run created that is
+/// still empty (for an interrupt: no partial file is left).
+pub fn remove_temporaries() {
+    let list = TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner());
+    for tmp in list.iter() {
+        let _ = std::fs::remove_file(tmp);
+    }
+    for dir in CREATED_DIRS.lock().unwrap_or_else(|e| e.into_inner()).iter() {
+        let _ = std::fs::remove_dir(dir);
+    }
+}
+
 /// Runs `fill` on a temporary file beside `path`, flushes it to disk and renames it to `path`;
 /// on any error the temporary file is removed and `path` is untouched.
 fn atomically(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<()> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
     let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+    let track = |add: bool| {
+        let mut list = TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner());
+        if add { list.push(tmp.clone()) } else { list.retain(|p| *p != tmp) }
+    };
+    track(true);
     let result = (|| -> Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         fill(&mut f)?;
@@ -105,6 +140,7 @@ fn atomically(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) 
         std::fs::rename(&tmp, path)?;
         Ok(())
     })();
+    track(false);
     if let Err(e) = result {
         let _ = std::fs::remove_file(&tmp);
         return Err(e).with_context(|| format!("writing {}", path.display()));

@@ -250,3 +250,22 @@ fn files_over_the_size_limit_are_refused_with_the_figure_and_the_flag() {
     assert!(stderr(&o).contains("scene /dev/zero is not a regular file"), "{}", stderr(&o));
     assert_eq!(files(dir.path()), ["big.obj", "s.toml"], "no output file");
 }
+
+#[cfg(unix)]
+#[test]
+fn ctrl_c_during_a_render_stops_cleanly_and_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_lancer"))
+        .args(["render", "--width", "2048", "--samples", "16", "-o", "out.png", "--aov", "aov"])
+        .current_dir(dir.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("lancer runs");
+    std::thread::sleep(std::time::Duration::from_millis(400));
+    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().expect("kill runs");
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
+    assert!(files(dir.path()).is_empty(), "left behind: {:?}", files(dir.path()));
+}
