@@ -1,10 +1,10 @@
 //! Renders checked against closed forms computed here, independently of the renderer (f64,
-//! the camera formula of SCENE-FORMAT.md written out again).
+//! the camera formula of docs/scene-format.md written out again).
 
 use glam::DVec3;
 use lancer_tests::{load, render};
 
-/// The ray direction of pixel (i, j) by SCENE-FORMAT.md's formula, in f64.
+/// The ray direction of pixel (i, j) by docs/scene-format.md's formula, in f64.
 fn camera_ray(from: DVec3, to: DVec3, fov_deg: f64, w: u32, h: u32, i: u32, j: u32) -> DVec3 {
     let forward = (to - from).normalize();
     let right = forward.cross(DVec3::Y).normalize();

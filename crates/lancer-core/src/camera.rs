@@ -1,4 +1,4 @@
-//! The pinhole camera of SCENE-FORMAT.md: `from`, `to`, `up`, vertical field of view.
+//! The pinhole camera of docs/scene-format.md: `from`, `to`, `up`, vertical field of view.
 
 use glam::Vec3;
 

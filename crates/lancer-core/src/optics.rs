@@ -13,7 +13,7 @@ pub fn reflect(u: Vec3, n: Vec3) -> Vec3 {
 /// The handout's `VctTransmis(u, N', delta)` with `delta = n1 / n2`.
 ///
 /// `n_t` is the unit normal on the **transmission side** (`n_t · u >= 0`); callers flip the
-/// outward normal at an entry point (see MODEL.md, "VctTransmis and its sign trap"). A normal that
+/// outward normal at an entry point (see docs/model.md, refraction). A normal that
 /// still comes in on the wrong side (an interpolated mesh normal near a silhouette can) is turned
 /// round rather than producing the trap's mirror-like direction. Returns `None` on total internal
 /// reflection (`1 - delta² (1 - ps²) < 0`), never a NaN.

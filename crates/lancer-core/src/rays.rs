@@ -1,5 +1,5 @@
 //! Components of the per-tile ray world: each entity is a *chunk* of rays stored as SoA columns
-//! (DESIGN.md: an entity per ray costs more in bookkeeping than tracing it).
+//! (an entity per ray would cost more in bookkeeping than tracing it).
 
 use glam::Vec3;
 
@@ -121,21 +121,6 @@ pub struct Hits {
 }
 
 impl Hits {
-    /// Hit columns for `n` lanes, all misses.
-    pub fn misses(n: usize) -> Hits {
-        Hits {
-            t: vec![f32::INFINITY; n],
-            point: vec![Vec3::ZERO; n],
-            local: vec![Vec3::ZERO; n],
-            uv: vec![glam::Vec2::ZERO; n],
-            normal: vec![Vec3::ZERO; n],
-            shading: vec![Vec3::ZERO; n],
-            error: vec![0.0; n],
-            front: vec![true; n],
-            object: vec![NO_HIT; n],
-        }
-    }
-
     /// Makes these columns `n` lanes of misses, reusing their capacity.
     pub fn reset(&mut self, n: usize) {
         fn fill<T: Clone>(v: &mut Vec<T>, n: usize, x: T) {
@@ -174,11 +159,6 @@ pub struct LightSamples {
 }
 
 impl LightSamples {
-    /// Zeroed columns for `lanes` lanes and `lights` lights.
-    pub fn dark(lanes: usize, lights: usize) -> LightSamples {
-        LightSamples { lights, w: vec![Vec3::ZERO; lanes * lights], incoming: vec![Vec3::ZERO; lanes * lights] }
-    }
-
     /// Makes these columns `lanes` lanes of darkness for `lights` lights, reusing their capacity.
     pub fn reset(&mut self, lanes: usize, lights: usize) {
         self.lights = lights;

@@ -1,4 +1,4 @@
-//! The scene file's serde shape (SCENE-FORMAT.md, version 1). Unknown keys are rejected; numbers
+//! The scene file's serde shape (docs/scene-format.md, version 1). Unknown keys are rejected; numbers
 //! must be finite and in range, checked while deserialising so errors carry the value's span.
 
 use std::collections::BTreeMap;

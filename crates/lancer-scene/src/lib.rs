@@ -1,4 +1,4 @@
-//! Scene and model files: TOML text (SCENE-FORMAT.md) → a [`lancer_core::Scene`] (a hecs World of
+//! Scene and model files: TOML text (docs/scene-format.md) → a [`lancer_core::Scene`] (a hecs World of
 //! objects, materials and lights) and a [`lancer_shading::Pipeline`] built from the registry.
 //! Every error names the file, line and column. No file system access: callers pass the text.
 

@@ -145,14 +145,14 @@ impl Object {
 
     /// The world-space hit record of the crossing `c` of the world ray `o + t d`.
     pub fn hit(&self, index: u32, o: Vec3, d: Vec3, c: &ShapeHit) -> Hit {
-        let world = |point: Vec3, local: Vec3, normal: Vec3, error: f32| Hit {
+        let describe = |point: Vec3, local: Vec3, normal: Vec3, shading: Vec3, uv: Vec2, error: f32| Hit {
             t: c.t,
             object: index,
             point,
             local,
             normal,
-            shading: normal,
-            uv: Vec2::ZERO,
+            shading,
+            uv,
             error,
             front: normal.dot(d) < 0.0,
         };
@@ -169,37 +169,24 @@ impl Object {
                 // The object-space point from the offset to the centre, not from the rounded
                 // world point: patterns stay exact on a small sphere far from the origin.
                 let local = self.object_from_world.transform_vector3((radius * u).as_vec3());
-                return world(
-                    point,
-                    local,
-                    u.as_vec3().normalize_or(Vec3::Y),
-                    f32::EPSILON * point.abs().max_element(),
-                );
+                let normal = u.as_vec3().normalize_or(Vec3::Y);
+                describe(point, local, normal, normal, Vec2::ZERO, f32::EPSILON * point.abs().max_element())
             }
             Fast::Plane { normal, offset } => {
                 let n = normal.as_dvec3();
                 let point = (p - n * (n.dot(p) - offset as f64)).as_vec3();
                 // On the plane: y is 0 in its own space, exactly, for the checker's sake.
                 let local = self.object_from_world.transform_point3(point) * Vec3::new(1.0, 0.0, 1.0);
-                return world(point, local, normal, f32::EPSILON * point.abs().max_element());
+                describe(point, local, normal, normal, Vec2::ZERO, f32::EPSILON * point.abs().max_element())
             }
-            Fast::None => {}
-        }
-        let (oo, od) = self.to_object(o, d);
-        let local: LocalSurface = self.shape.surface(oo, od, c);
-        let normal = self.world_normal(local.normal);
-        let shading = if local.shading == local.normal { normal } else { self.world_normal(local.shading) };
-        let (point, error) = place(&self.world_from_object, local.point, local.error, normal);
-        Hit {
-            t: c.t,
-            object: index,
-            point,
-            local: local.point,
-            normal,
-            shading,
-            uv: local.uv,
-            error,
-            front: normal.dot(d) < 0.0,
+            Fast::None => {
+                let (oo, od) = self.to_object(o, d);
+                let local: LocalSurface = self.shape.surface(oo, od, c);
+                let normal = self.world_normal(local.normal);
+                let shading = if local.shading == local.normal { normal } else { self.world_normal(local.shading) };
+                let (point, error) = place(&self.world_from_object, local.point, local.error, normal);
+                describe(point, local.point, normal, shading, local.uv, error)
+            }
         }
     }
 

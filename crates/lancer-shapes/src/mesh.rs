@@ -260,11 +260,19 @@ impl Mesh {
 mod tests {
     use super::*;
 
+    /// The unit octahedron's 8 triangles wound outward (vertices ±x, ±y, ±z in that order).
+    const OUTWARD: [[u32; 3]; 8] =
+        [[0, 2, 4], [4, 2, 1], [1, 2, 5], [5, 2, 0], [4, 3, 0], [1, 3, 4], [5, 3, 1], [0, 3, 5]];
+
+    /// A unit octahedron with the triangles `t`.
+    fn octahedron_of(t: Vec<[u32; 3]>) -> Mesh {
+        let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+        Mesh::new(p, Vec::new(), Vec::new(), t).unwrap()
+    }
+
     /// A unit octahedron: 6 vertices, 8 triangles wound outward.
     fn octahedron() -> Mesh {
-        let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-        let t = vec![[0, 2, 4], [4, 2, 1], [1, 2, 5], [5, 2, 0], [4, 3, 0], [1, 3, 4], [5, 3, 1], [0, 3, 5]];
-        Mesh::new(p, Vec::new(), Vec::new(), t).unwrap()
+        octahedron_of(OUTWARD.to_vec())
     }
 
     #[test]
@@ -301,9 +309,9 @@ mod tests {
         // its neighbours'. Before the fix only edge counts were checked, and that triangle's
         // normal pointed inside. Now the winding is made consistent, so the mesh is closed and
         // its normals all point out.
-        let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-        let t = vec![[0, 4, 2], [4, 2, 1], [1, 2, 5], [5, 2, 0], [4, 3, 0], [1, 3, 4], [5, 3, 1], [0, 3, 5]];
-        let m = Mesh::new(p, Vec::new(), Vec::new(), t).unwrap();
+        let mut t = OUTWARD.to_vec();
+        t[0].swap(1, 2);
+        let m = octahedron_of(t);
         assert!(m.is_closed());
         // The turned-round triangle (0, 4, 2) faces +x +y +z: hit it from outside there.
         let d = -Vec3::ONE.normalize();
@@ -326,9 +334,7 @@ mod tests {
 
     #[test]
     fn a_closed_mesh_wound_inside_out_gets_outward_normals() {
-        let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-        let t = vec![[0, 4, 2], [4, 1, 2], [1, 5, 2], [5, 0, 2], [4, 0, 3], [1, 4, 3], [5, 1, 3], [0, 5, 3]];
-        let m = Mesh::new(p, Vec::new(), Vec::new(), t).unwrap();
+        let m = octahedron_of(OUTWARD.iter().map(|&[a, b, c]| [a, c, b]).collect());
         assert!(m.is_closed());
         let h = m.intersect(Vec3::new(0.1, 0.1, -5.0), Vec3::Z, 0.0, f32::INFINITY).unwrap();
         assert!(m.surface(h.part, h.bary).normal.z < 0.0, "the normal faces the ray coming from outside");

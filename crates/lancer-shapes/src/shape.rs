@@ -1,4 +1,4 @@
-//! The canonical shapes in object space (SCENE-FORMAT.md) and their two queries.
+//! The canonical shapes in object space (docs/scene-format.md) and their two queries.
 
 use glam::Vec3;
 

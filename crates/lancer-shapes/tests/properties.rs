@@ -9,7 +9,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
 /// How far an object-space point is from the shape's surface (0 on it; not always a true
-/// distance, but zero exactly on the surface), from the shapes' definitions in SCENE-FORMAT.md.
+/// distance, but zero exactly on the surface), from the shapes' definitions in docs/scene-format.md.
 fn surface_distance(shape: &Shape, p: Vec3) -> f32 {
     let rho = (p.x * p.x + p.z * p.z).sqrt();
     match shape {
