@@ -35,6 +35,9 @@ struct Cli {
 enum Command {
     /// Render a scene (the embedded showcase when no SCENE is given).
     Render(RenderArgs),
+    /// Explain one pixel: its ray tree, the light at each hit, every term's inputs and
+    /// contribution, and the per-term totals (the values `--aov` writes there).
+    Explain(ExplainArgs),
     /// List every registered term, its variants and parameters, and every shadow model.
     Terms,
 }
@@ -53,19 +56,11 @@ enum AovFormat {
 /// The default of `--max-file-size`, in MB.
 const MAX_FILE_MB: u64 = 1024;
 
-#[derive(Args, Default)]
-struct RenderArgs {
+/// What every command that renders reads: the scene and how to change its model and image.
+#[derive(Args, Clone, Default)]
+struct SceneArgs {
     /// Scene file (TOML); the embedded showcase when absent.
     scene: Option<PathBuf>,
-    /// Beauty image: .png (sRGB 8-bit) or .exr (linear float).
-    #[arg(short, long, default_value = "render.png")]
-    output: PathBuf,
-    /// Also write DIR/<term>.exr and DIR/<term>.png for every term, and DIR/beauty.{exr,png}.
-    #[arg(long, value_name = "DIR")]
-    aov: Option<PathBuf>,
-    /// Which files --aov writes for each image: linear EXR, sRGB PNG, or both.
-    #[arg(long, value_enum, default_value_t = AovFormat::Both)]
-    aov_format: AovFormat,
     /// Replace the scene's [model] with this model file.
     #[arg(long, value_name = "FILE")]
     model: Option<PathBuf>,
@@ -88,15 +83,49 @@ struct RenderArgs {
     /// Samples per pixel (anti-aliasing), overriding the scene's.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     samples: Option<u32>,
+    /// Largest file (scene, model, mesh or texture) Lancer will read, in MB.
+    #[arg(long, value_name = "MB", default_value_t = MAX_FILE_MB, value_parser = clap::value_parser!(u64).range(1..))]
+    max_file_size: u64,
+}
+
+#[derive(Args, Default)]
+struct RenderArgs {
+    #[command(flatten)]
+    input: SceneArgs,
+    /// Beauty image: .png (sRGB 8-bit) or .exr (linear float).
+    #[arg(short, long, default_value = "render.png")]
+    output: PathBuf,
+    /// Also write DIR/<term>.exr and DIR/<term>.png for every term, and DIR/beauty.{exr,png}.
+    #[arg(long, value_name = "DIR")]
+    aov: Option<PathBuf>,
+    /// Which files --aov writes for each image: linear EXR, sRGB PNG, or both.
+    #[arg(long, value_enum, default_value_t = AovFormat::Both)]
+    aov_format: AovFormat,
     /// Worker threads (default: one per core). The image is identical for any count.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
     /// No progress bar or summary line.
     #[arg(short, long)]
     quiet: bool,
-    /// Largest file (scene, model, mesh or texture) Lancer will read, in MB.
-    #[arg(long, value_name = "MB", default_value_t = MAX_FILE_MB, value_parser = clap::value_parser!(u64).range(1..))]
-    max_file_size: u64,
+}
+
+#[derive(Args)]
+struct ExplainArgs {
+    #[command(flatten)]
+    input: SceneArgs,
+    /// The pixel: column X from the left, row Y from the top, as in the images.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    pixel: (u32, u32),
+    /// Print the explanation as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `X,Y` as two whole numbers.
+fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+    let expected = || format!("expected X,Y (column from the left, row from the top), e.g. 120,45; got `{s}`");
+    let (x, y) = s.split_once(',').ok_or_else(expected)?;
+    Ok((x.trim().parse().map_err(|_| expected())?, y.trim().parse().map_err(|_| expected())?))
 }
 
 /// Runs the `lancer` command line (`std::env::args`) with `registry`'s terms and shadow models;
@@ -123,9 +152,14 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
     match cli.command {
         None => render(
             registry,
-            RenderArgs { output: "render.png".into(), max_file_size: MAX_FILE_MB, ..RenderArgs::default() },
+            RenderArgs {
+                output: "render.png".into(),
+                input: SceneArgs { max_file_size: MAX_FILE_MB, ..SceneArgs::default() },
+                ..RenderArgs::default()
+            },
         ),
         Some(Command::Render(args)) => render(registry, args),
+        Some(Command::Explain(args)) => explain(registry, args),
         Some(Command::Terms) => {
             print!("{}", crate::listing::terms(registry));
             Ok(())
@@ -155,9 +189,18 @@ fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
     String::from_utf8(bytes).with_context(|| format!("reading {what} {}: not UTF-8 text", path.display()))
 }
 
-fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
-    // Check every output path before the (long) render, so a typo costs nothing.
-    let format = Format::of(&args.output)?;
+/// A scene loaded with its model, the command line's changes applied.
+struct Loaded {
+    scene: lancer_core::Scene,
+    pipeline: Pipeline,
+    /// How the scene is named in messages.
+    name: String,
+    load_time: std::time::Duration,
+}
+
+/// Reads and builds the scene and its model, applies the command line's changes, and checks the
+/// image's size.
+fn load(registry: &Registry, args: &SceneArgs) -> Result<Loaded> {
     let (src, name) = match &args.scene {
         Some(p) => (read(p, "scene", args.max_file_size)?, p.display().to_string()),
         None => (DEFAULT_SCENE.to_owned(), DEFAULT_SCENE_NAME.to_owned()),
@@ -213,6 +256,13 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
             img.height
         );
     }
+    Ok(Loaded { scene, pipeline, name, load_time })
+}
+
+fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
+    // Check every output path before the (long) render, so a typo costs nothing.
+    let format = Format::of(&args.output)?;
+    let Loaded { scene, pipeline, name, load_time } = load(registry, &args.input)?;
     if let Some(dir) = &args.aov {
         crate::output::create_output_dir(dir).context("creating the AOV directory")?;
     }
@@ -264,6 +314,25 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
             load_time.as_secs_f64(),
             peak_memory().map(|b| format!(", peak memory {:.1} MB", b as f64 / 1e6)).unwrap_or_default()
         );
+    }
+    Ok(())
+}
+
+fn explain(registry: &Registry, args: ExplainArgs) -> Result<()> {
+    let Loaded { scene, pipeline, name, .. } = load(registry, &args.input)?;
+    let (x, y) = args.pixel;
+    let (w, h) = (scene.image.width, scene.image.height);
+    if x >= w || y >= h {
+        bail!("pixel {x},{y} is outside the {w}x{h} image (columns 0..{}, rows 0..{})", w - 1, h - 1);
+    }
+    let prepared = lancer_shading::prepare(&scene).with_context(|| format!("preparing {name}"))?;
+    let explanation = lancer_shading::explain_pixel(&prepared, &scene.camera, &scene.image, &pipeline, x, y);
+    let report =
+        crate::explain::Report { scene: &name, image: &scene.image, pipeline: &pipeline, explanation: &explanation };
+    if args.json {
+        println!("{}", report.json());
+    } else {
+        print!("{}", report.text());
     }
     Ok(())
 }

@@ -3,6 +3,7 @@
 //! encoding ([`output`]) and the `lancer terms` text ([`listing`]).
 
 mod app;
+mod explain;
 pub mod listing;
 pub mod output;
 

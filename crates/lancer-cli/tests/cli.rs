@@ -269,3 +269,70 @@ fn ctrl_c_during_a_render_stops_cleanly_and_leaves_no_file() {
     assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
     assert!(files(dir.path()).is_empty(), "left behind: {:?}", files(dir.path()));
 }
+
+#[test]
+fn explain_json_totals_are_the_aov_exr_values_of_the_pixel() {
+    // A glass sphere pixel, a mirror chain five deep, and anti-aliased pixels with a Blinn model.
+    /// A scene, extra flags, and pixels to explain.
+    type Case<'a> = (&'a str, &'a [&'a str], &'a [(u32, u32)]);
+    let cases: &[Case] = &[
+        ("glass.toml", &[], &[(40, 20), (48, 16), (20, 20)]),
+        ("mirrors.toml", &[], &[(22, 14), (28, 14)]),
+        (
+            "showcase.toml",
+            &["--samples", "3", "--terms", "ambient,diffuse,specular:blinn,mirror,refraction"],
+            &[(16, 22), (32, 18)],
+        ),
+    ];
+    for (name, extra, pixels) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let path = scene(name);
+        let mut args =
+            vec!["render", &path, "--width", "64", "-o", "out.exr", "--aov", "aov", "--aov-format", "exr", "-q"];
+        args.extend_from_slice(extra);
+        let o = lancer(dir.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let aov: Vec<String> =
+            files(&dir.path().join("aov")).into_iter().map(|f| f.trim_end_matches(".exr").to_owned()).collect();
+        for &(x, y) in *pixels {
+            let pixel = format!("{x},{y}");
+            let mut args = vec!["explain", &path[..], "--width", "64", "--pixel", &pixel, "--json"];
+            args.extend_from_slice(extra);
+            let o = lancer(dir.path(), &args);
+            assert!(o.status.success(), "{}", stderr(&o));
+            let doc: serde_json::Value = serde_json::from_slice(&o.stdout).expect("explain --json prints JSON");
+            let terms = doc["terms"].as_object().expect("a terms object");
+            let mut names: Vec<String> = terms.keys().cloned().collect();
+            names.push("beauty".to_owned());
+            names.sort();
+            assert_eq!(names, aov, "{name}: explain names the images --aov writes");
+            for image in &aov {
+                let value = if image == "beauty" { &doc["beauty"] } else { &terms[image] };
+                let got: Vec<f32> = value.as_array().unwrap().iter().map(|c| c.as_f64().unwrap() as f32).collect();
+                let exr = image::open(dir.path().join(format!("aov/{image}.exr"))).unwrap().into_rgb32f();
+                let want = exr.get_pixel(x, y).0.to_vec();
+                assert_eq!(got, want, "{name} at {pixel}: {image}");
+            }
+        }
+        if *name == "glass.toml" {
+            let o = lancer(dir.path(), &["explain", &path, "--width", "64", "--pixel", "40,20"]);
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert!(
+                text.contains("refraction ray") && text.contains("u_t = VctTransmis") && text.contains("J (exit)"),
+                "{text}"
+            );
+        }
+    }
+}
+
+#[test]
+fn explain_refuses_a_pixel_outside_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = lancer(dir.path(), &["explain", &scene("glass.toml"), "--width", "64", "--pixel", "64,3"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("pixel 64,3 is outside the 64x36 image"), "{}", stderr(&o));
+    let o = lancer(dir.path(), &["explain", "--pixel", "3"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("expected X,Y"), "{}", stderr(&o));
+    assert!(files(dir.path()).is_empty());
+}

@@ -5,6 +5,7 @@
 //! This crate knows nothing of TOML files or the command line: a model arrives as names and typed
 //! parameters ([`Params`]), and a render returns a [`lancer_core::Frame`].
 
+mod explain;
 mod params;
 mod pattern;
 mod prepare;
@@ -15,6 +16,7 @@ pub mod shadows;
 mod term;
 pub mod terms;
 
+pub use explain::{HitNode, LightNode, PixelExplanation, RayNode, TermNode, explain_pixel};
 pub use params::{ParamError, ParamSpec, ParamValue, Params};
 pub use pattern::surface_color;
 pub use prepare::{PrepareError, Prepared, prepare};
@@ -23,4 +25,4 @@ pub use registry::{
 };
 pub use render::{RenderOptions, WAVE, render, render_prepared};
 pub use shadow::{ShadowContext, ShadowModel};
-pub use term::{Chunk, ShadeContext, Term, TermOutput, mirror_direction, sum_lights};
+pub use term::{Chunk, Note, NoteValue, ShadeContext, Term, TermOutput, lit_by, mirror_direction, sum_lights};

@@ -42,13 +42,7 @@ pub fn render_prepared(
     options: RenderOptions<'_>,
 ) -> Frame {
     let (width, height) = (image.width, image.height);
-    let ctx = ShadeContext {
-        geometry: &prepared.geometry,
-        materials: &prepared.materials,
-        lights: &prepared.lights,
-        max_depth: pipeline.max_depth,
-        textures: &prepared.textures,
-    };
+    let ctx = shade_context(prepared, pipeline);
     let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
     names.push(BACKGROUND.to_owned());
     let mut layers: Vec<Layer> =
@@ -77,7 +71,7 @@ pub fn render_prepared(
                 let y0 = band as u32 * TILE;
                 for x0 in (0..width).step_by(TILE as usize) {
                     let tile = Tile { x0, y0, w: TILE.min(width - x0), h: TILE.min(height - y0) };
-                    stats += render_tile(&ctx, camera, image, pipeline, tile, scratch);
+                    stats += render_tile(&ctx, camera, image, pipeline, tile, scratch, None);
                     // The tile's pixels into the band's rows of every layer.
                     for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
                         for row in 0..tile.h as usize {
@@ -100,20 +94,56 @@ pub fn render_prepared(
     Frame { width, height, layers, stats }
 }
 
+/// What the terms of `pipeline` see of `prepared`.
+pub(crate) fn shade_context<'a>(prepared: &'a Prepared, pipeline: &Pipeline) -> ShadeContext<'a> {
+    ShadeContext {
+        geometry: &prepared.geometry,
+        materials: &prepared.materials,
+        lights: &prepared.lights,
+        max_depth: pipeline.max_depth,
+        textures: &prepared.textures,
+    }
+}
+
+/// A rectangle of the image, in pixels.
 #[derive(Clone, Copy)]
-struct Tile {
-    x0: u32,
-    y0: u32,
-    w: u32,
-    h: u32,
+pub(crate) struct Tile {
+    pub(crate) x0: u32,
+    pub(crate) y0: u32,
+    pub(crate) w: u32,
+    pub(crate) h: u32,
 }
 
 /// Most camera rays traced together in one tile: the samples of a tile are traced in waves of
 /// this many, so memory does not grow with the number of samples per pixel.
 pub const WAVE: usize = 4096;
 
+/// The waves of a tile of `pixels` pixels with `spp` samples each, as ranges of its samples
+/// (pixel-major). A wave never splits a pixel's samples unless they are more than [`WAVE`]:
+/// then each pixel is cut at multiples of `WAVE` from its first sample. So a pixel's samples go
+/// through the same waves whatever tile it is rendered in (a whole frame or the pixel alone, as
+/// [`crate::explain_pixel`] does), and its sums are made in the same order, to the bit.
+pub(crate) fn waves(pixels: usize, spp: usize) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let total = pixels * spp;
+    let mut start = 0;
+    std::iter::from_fn(move || {
+        if start >= total {
+            return None;
+        }
+        let end = if spp <= WAVE {
+            start + (WAVE / spp) * spp
+        } else {
+            let pixel_end = (start / spp + 1) * spp;
+            (start + WAVE).min(pixel_end)
+        };
+        let range = start..end.min(total);
+        start = range.end;
+        Some(range)
+    })
+}
+
 /// A thread's buffers, kept from tile to tile.
-struct Scratch {
+pub(crate) struct Scratch {
     world: hecs::World,
     entities: Vec<hecs::Entity>,
     /// Chunk columns whose entities were despawned, ready for the next generation.
@@ -121,11 +151,11 @@ struct Scratch {
     /// The rays of the next generation (the camera rays of a wave to begin with).
     next: Rays,
     /// The tile's pixels, per layer (terms in model order, then the background).
-    accum: Vec<Vec<Vec3>>,
+    pub(crate) accum: Vec<Vec<Vec3>>,
 }
 
 impl Scratch {
-    fn new(layers: usize) -> Scratch {
+    pub(crate) fn new(layers: usize) -> Scratch {
         Scratch {
             world: hecs::World::new(),
             entities: Vec::new(),
@@ -135,12 +165,12 @@ impl Scratch {
         }
     }
 
-    /// Splits `next` into chunk entities (each spawned with all its components, from pooled
-    /// columns), leaving `next` empty.
-    fn spawn_chunks(&mut self, lights: usize) {
+    /// Splits `next` into chunk entities of at most `lanes` rays (each spawned with all its
+    /// components, from pooled columns), leaving `next` empty.
+    fn spawn_chunks(&mut self, lights: usize, lanes: usize) {
         let n = self.next.len();
-        for start in (0..n).step_by(CHUNK_LANES) {
-            let range = start..(start + CHUNK_LANES).min(n);
+        for start in (0..n).step_by(lanes) {
+            let range = start..(start + lanes).min(n);
             let (mut rays, mut hits, mut samples) = self.pool.pop().unwrap_or_default();
             rays.copy_from(&self.next, range.clone());
             hits.reset(range.len());
@@ -172,14 +202,19 @@ fn sample_offset(s: u32, n: u32) -> (f32, f32) {
     (((i / G).fract()) as f32, ((i / (G * G)).fract()) as f32)
 }
 
-/// Renders one tile into `scratch.accum` (tile-local rows), wave by wave of camera rays.
-fn render_tile(
+/// Renders one tile into `scratch.accum` (tile-local rows), wave by wave of camera rays. With a
+/// `recorder`, every ray is its own chunk and everything the systems find about it is kept (the
+/// sums are made in the same order as with full chunks: terms run chunk after chunk, lane after
+/// lane, either way).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn render_tile(
     ctx: &ShadeContext<'_>,
     camera: &Camera,
     image: &ImageSettings,
     pipeline: &Pipeline,
     tile: Tile,
     scratch: &mut Scratch,
+    mut recorder: Option<&mut crate::explain::Recorder>,
 ) -> RenderStats {
     let pixels = (tile.w * tile.h) as usize;
     let background_layer = pipeline.terms.len();
@@ -189,20 +224,28 @@ fn render_tile(
     }
     let shadow_ctx = ShadowContext::new(ctx);
     let mut stats = RenderStats::default();
-    let spp = image.samples.max(1);
-    let total = pixels * spp as usize;
-    for wave in (0..total).step_by(WAVE) {
-        camera_system(camera, image, tile, wave..(wave + WAVE).min(total), &mut scratch.next);
+    let spp = image.samples.max(1) as usize;
+    let lanes = if recorder.is_some() { 1 } else { CHUNK_LANES };
+    for wave in waves(pixels, spp) {
+        camera_system(camera, image, tile, wave.clone(), &mut scratch.next);
         stats.camera_rays += scratch.next.len() as u64;
+        if let Some(r) = recorder.as_deref_mut() {
+            r.camera_rays(wave, spp);
+        }
         loop {
             stats.peak_lanes = stats.peak_lanes.max(scratch.next.len() as u64);
-            scratch.spawn_chunks(ctx.lights.len());
+            scratch.spawn_chunks(ctx.lights.len(), lanes);
             let Scratch { world, next, accum, .. } = scratch;
             trace_system(world, ctx);
             visibility_system(world, ctx, &shadow_ctx, pipeline);
+            if let Some(r) = recorder.as_deref_mut() {
+                r.generation(world, ctx, pipeline, image.background);
+            }
             background_system(world, image.background, background_layer, accum);
             for (layer, named) in pipeline.terms.iter().enumerate() {
-                for (rays, hits, lights) in world.query::<(&Rays, &Hits, &LightSamples)>().iter() {
+                for (c, (rays, hits, lights)) in world.query::<(&Rays, &Hits, &LightSamples)>().iter().enumerate() {
+                    let before = next.len();
+                    let mut added = Vec::new();
                     let mut out = TermOutput {
                         layer: layer as u16,
                         weight: named.weight,
@@ -210,8 +253,15 @@ fn render_tile(
                         accum,
                         next,
                         max_depth: pipeline.max_depth,
+                        record: recorder.is_some().then_some(&mut added),
                     };
-                    named.term.run(ctx, Chunk { rays, hits, lights }, &mut out);
+                    let chunk = Chunk { rays, hits, lights };
+                    named.term.run(ctx, chunk, &mut out);
+                    if let Some(r) = recorder.as_deref_mut() {
+                        let notes =
+                            if hits.object[0] != NO_HIT { named.term.explain(ctx, chunk, 0) } else { Vec::new() };
+                        r.term_ran(c, layer, notes, added, before..next.len());
+                    }
                 }
             }
             scratch.recycle();

@@ -99,6 +99,8 @@ pub struct TermOutput<'a> {
     pub(crate) accum: &'a mut [Vec<Vec3>],
     pub(crate) next: &'a mut Rays,
     pub(crate) max_depth: u8,
+    /// While explaining a pixel: every `add`, as (the term's colour, what reached the pixel).
+    pub(crate) record: Option<&'a mut Vec<(Vec3, Vec3)>>,
 }
 
 impl TermOutput<'_> {
@@ -114,7 +116,11 @@ impl TermOutput<'_> {
     #[inline]
     pub fn add(&mut self, lane: usize, colour: Vec3) {
         let layer = self.credit(lane) as usize;
-        self.accum[layer][self.rays.pixel[lane] as usize] += self.weight * self.rays.weight[lane] * colour;
+        let added = self.weight * self.rays.weight[lane] * colour;
+        self.accum[layer][self.rays.pixel[lane] as usize] += added;
+        if let Some(record) = self.record.as_deref_mut() {
+            record.push((colour, added));
+        }
     }
 
     /// Whether a child of `lane` would be within the depth limit.
@@ -161,6 +167,63 @@ pub trait Term: Send + Sync {
         let _ = material;
         true
     }
+
+    /// The inputs of the term's formula at `lane` of `chunk`, for `lancer explain` (called after
+    /// [`Term::run`], on one-lane chunks, only while a pixel is explained). The default says
+    /// nothing; the built-in terms list what their formula reads (e.g. `−u·w_r` and the
+    /// exponent for each light of the Phong highlight).
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let _ = (ctx, chunk, lane);
+        Vec::new()
+    }
+}
+
+/// One named input of a term's formula, as `lancer explain` shows it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Note {
+    /// What it is, in the model's notation (`N·w`, `u_t`, `exponent`, ...), prefixed by
+    /// `light K: ` when it belongs to one light.
+    pub name: String,
+    /// Its value.
+    pub value: NoteValue,
+}
+
+/// The value of a [`Note`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum NoteValue {
+    /// A number.
+    Number(f32),
+    /// A vector or a colour.
+    Vector(Vec3),
+    /// Anything else, in words.
+    Text(String),
+}
+
+impl Note {
+    /// A numeric note.
+    pub fn number(name: impl Into<String>, value: f32) -> Note {
+        Note { name: name.into(), value: NoteValue::Number(value) }
+    }
+
+    /// A vector (or colour) note.
+    pub fn vector(name: impl Into<String>, value: Vec3) -> Note {
+        Note { name: name.into(), value: NoteValue::Vector(value) }
+    }
+
+    /// A note in words.
+    pub fn text(name: impl Into<String>, value: impl Into<String>) -> Note {
+        Note { name: name.into(), value: NoteValue::Text(value.into()) }
+    }
+}
+
+/// For each light that reaches the hit of `lane` (`N·w > 0`, not fully shadowed), with `n` the
+/// normal facing the ray: its number (from 1, in scene order), `N·w` and `w`. The lights
+/// [`sum_lights`] adds, for a term's [`Term::explain`].
+pub fn lit_by<'a>(chunk: &Chunk<'a>, lane: usize, n: Vec3) -> impl Iterator<Item = (usize, f32, Vec3)> + 'a {
+    chunk.lights.lane(lane).enumerate().filter_map(move |(k, (w, light))| {
+        let nw = n.dot(w);
+        (nw > 0.0 && light != Vec3::ZERO).then_some((k + 1, nw, w))
+    })
 }
 
 /// The point and surface normal terms shade with: the normal faces the incoming ray.

@@ -9,7 +9,7 @@
 //! terms = ["ambient"]
 //! ```
 
-use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
+use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `ambient`, variant `seed`.
 pub const SPEC: TermSpec = TermSpec {
@@ -23,6 +23,11 @@ pub const SPEC: TermSpec = TermSpec {
 struct Ambient;
 
 impl Term for Ambient {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        vec![Note::number("ambi", m.ambi), Note::vector("Col_Ω", ctx.color(chunk.hits, lane))]
+    }
+
     fn reads_lights(&self, _: &lancer_core::Material) -> bool {
         false
     }

@@ -10,7 +10,7 @@
 //! ```
 
 use crate::term::facing;
-use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec, sum_lights};
+use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec, lit_by, sum_lights};
 
 /// The spec registered as `diffuse`, variant `lambert`.
 pub const SPEC: TermSpec = TermSpec {
@@ -24,6 +24,14 @@ pub const SPEC: TermSpec = TermSpec {
 struct Lambert;
 
 impl Term for Lambert {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        let (_, n) = facing(&chunk, lane);
+        let mut notes = vec![Note::number("diff", m.diff), Note::vector("Col_Ω", ctx.color(chunk.hits, lane))];
+        notes.extend(lit_by(&chunk, lane, n).map(|(k, nw, _)| Note::number(format!("light {k}: N·w"), nw)));
+        notes
+    }
+
     fn reads_lights(&self, material: &lancer_core::Material) -> bool {
         material.diff > 0.0
     }

@@ -17,7 +17,7 @@
 use glam::Vec3;
 
 use crate::term::facing;
-use crate::{Chunk, ParamSpec, Params, ShadeContext, Term, TermOutput, TermSpec, sum_lights};
+use crate::{Chunk, Note, ParamSpec, Params, ShadeContext, Term, TermOutput, TermSpec, lit_by, sum_lights};
 
 /// The spec registered as `diffuse`, variant `oren-nayar`.
 pub const SPEC: TermSpec = TermSpec {
@@ -59,6 +59,23 @@ impl OrenNayar {
 }
 
 impl Term for OrenNayar {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        let (_, n) = facing(&chunk, lane);
+        let v = -chunk.rays.dir[lane];
+        let mut notes = vec![
+            Note::number("diff", m.diff),
+            Note::vector("Col_Ω", ctx.color(chunk.hits, lane)),
+            Note::number("A", self.a),
+            Note::number("B", self.b),
+        ];
+        for (k, nw, w) in lit_by(&chunk, lane, n) {
+            notes.push(Note::number(format!("light {k}: N·w"), nw));
+            notes.push(Note::number(format!("light {k}: A + B·max(0, cos φ)·sin α·tan β"), self.factor(n, w, v, nw)));
+        }
+        notes
+    }
+
     fn reads_lights(&self, material: &lancer_core::Material) -> bool {
         material.diff > 0.0
     }

@@ -13,7 +13,7 @@
 
 use glam::Vec3;
 
-use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
+use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `mirror`, variant `constant`.
 pub const SPEC: TermSpec = TermSpec {
@@ -27,6 +27,15 @@ pub const SPEC: TermSpec = TermSpec {
 struct Mirror;
 
 impl Term for Mirror {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        let hit = ctx.hit(chunk.hits, lane);
+        vec![
+            Note::number("spec (weight of R_r)", m.spec),
+            Note::vector("u_r = u − 2(N·u)N", crate::mirror_direction(&hit, chunk.rays.dir[lane])),
+        ]
+    }
+
     fn reads_lights(&self, _: &lancer_core::Material) -> bool {
         false
     }

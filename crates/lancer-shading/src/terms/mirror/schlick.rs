@@ -15,7 +15,7 @@ use glam::Vec3;
 use lancer_core::optics::{f0_from_index, schlick};
 
 use crate::term::facing;
-use crate::{Chunk, ParamSpec, Params, ShadeContext, Term, TermOutput, TermSpec};
+use crate::{Chunk, Note, ParamSpec, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `mirror`, variant `schlick`.
 pub const SPEC: TermSpec = TermSpec {
@@ -38,6 +38,20 @@ struct Schlick {
 }
 
 impl Term for Schlick {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        let (_, n) = facing(&chunk, lane);
+        let u = chunk.rays.dir[lane];
+        let f0 = self.f0.unwrap_or_else(|| f0_from_index(m.n));
+        let hit = ctx.hit(chunk.hits, lane);
+        vec![
+            Note::number("F0", f0),
+            Note::number("N·u", n.dot(u)),
+            Note::number("F = F0 + (1 − F0)(1 − |N·u|)^5 (weight of R_r)", schlick(n.dot(u), f0)),
+            Note::vector("u_r = u − 2(N·u)N", crate::mirror_direction(&hit, u)),
+        ]
+    }
+
     fn reads_lights(&self, _: &lancer_core::Material) -> bool {
         false
     }

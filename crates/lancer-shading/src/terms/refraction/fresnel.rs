@@ -18,9 +18,9 @@
 use glam::Vec3;
 use lancer_core::optics::fresnel_dielectric;
 
-use super::passage;
+use super::{passage, passage_notes};
 use crate::term::facing;
-use crate::{Chunk, ParamSpec, Params, ShadeContext, Term, TermOutput, TermSpec};
+use crate::{Chunk, Note, ParamSpec, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `refraction`, variant `fresnel`.
 pub const SPEC: TermSpec = TermSpec {
@@ -47,6 +47,26 @@ pub fn split(cos: f32, n: f32, front: bool) -> (f32, f32) {
 }
 
 impl Term for Fresnel {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        let mut notes = vec![Note::number("alpha", m.alpha), Note::number("n", m.n)];
+        if m.alpha <= 0.0 {
+            return notes;
+        }
+        let hit = ctx.hit(chunk.hits, lane);
+        let (_, n_facing) = facing(&chunk, lane);
+        let u = chunk.rays.dir[lane];
+        let (r_in, t_in) = split(n_facing.dot(u), m.n, hit.front);
+        notes.push(Note::number("R_in (Fresnel at I)", r_in));
+        notes.push(Note::number("T_in = 1 − R_in", t_in));
+        notes.extend(passage_notes(ctx, &hit, u, m.n));
+        if let Some(t) = passage(ctx, &hit, u, m.n) {
+            let t_out = if hit.front { split(t.exit_cos, m.n, false).1 } else { 1.0 };
+            notes.push(Note::number("T_out (Fresnel at J)", t_out));
+        }
+        notes
+    }
+
     fn reads_lights(&self, _: &lancer_core::Material) -> bool {
         false
     }

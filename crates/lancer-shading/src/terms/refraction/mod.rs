@@ -13,7 +13,7 @@ use glam::Vec3;
 use lancer_core::optics::{reflect, vct_transmis};
 use lancer_shapes::{Hit, Origin};
 
-use crate::ShadeContext;
+use crate::{Note, ShadeContext};
 
 /// A ray's way through a transparent object: where it comes out, how long it was inside.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,10 +39,28 @@ pub struct Passage {
 /// the ray to the wrong side of the actual surface (near a silhouette), the geometric normal is
 /// used instead, so the ray always goes in on entering and out on leaving.
 pub fn passage(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Option<Passage> {
+    passage_with(ctx, hit, u, n, |_| {})
+}
+
+/// One step of a [`passage`], for [`passage_notes`].
+enum Step {
+    /// Entered with direction `u_t`; reaches the surface again at the point.
+    Entered(Vec3, Vec3),
+    /// Reflected inside at the first point (total internal reflection); reaches the surface
+    /// again at the second.
+    Reflected(Vec3, Vec3),
+    /// Leaves (at the last exit point) with direction `v_t`.
+    Left(Vec3),
+}
+
+/// [`passage`], telling `step` what happens on the way.
+#[inline]
+fn passage_with(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32, mut step: impl FnMut(Step)) -> Option<Passage> {
     let mut length = 0.0;
     let (mut at, mut dir) = if hit.front {
         let (u_t, _) = bend(u, hit, 1.0 / n, false)?;
         let exit = ctx.geometry.exit(hit, u_t)?;
+        step(Step::Entered(u_t, exit.point));
         length += (exit.point - hit.point).length();
         (exit, u_t)
     } else {
@@ -51,6 +69,7 @@ pub fn passage(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Option<Pas
     for _ in 0..=ctx.max_depth {
         match bend(dir, &at, n, true) {
             Some((v_t, normal)) => {
+                step(Step::Left(v_t));
                 let from = ctx.geometry.spawn(&at, v_t);
                 let exit_cos = normal.dot(dir).abs().min(1.0);
                 return Some(Passage { from, dir: v_t, length, exit_cos });
@@ -61,12 +80,40 @@ pub fn passage(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Option<Pas
                     dir = reflect(dir, at.normal);
                 }
                 let exit = ctx.geometry.exit(&at, dir)?;
+                step(Step::Reflected(at.point, exit.point));
                 length += (exit.point - at.point).length();
                 at = exit;
             }
         }
     }
     None
+}
+
+/// The way through the object as [`crate::Term::explain`] notes: the entry `I`, `u_t`, the
+/// exit `J` (each total internal reflection on the way), `v_t`, and the length inside.
+pub fn passage_notes(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Vec<Note> {
+    let mut notes = vec![Note::vector("I (entry)", hit.point)];
+    if !hit.front {
+        notes[0] = Note::text("I", "reached from inside: the ray leaves there");
+    }
+    let mut reflections = 0;
+    let result = passage_with(ctx, hit, u, n, |step| match step {
+        Step::Entered(u_t, j) => {
+            notes.push(Note::vector("u_t = VctTransmis(u, −N, 1/n)", u_t));
+            notes.push(Note::vector("J (exit)", j));
+        }
+        Step::Reflected(at, next) => {
+            reflections += 1;
+            notes.push(Note::vector(format!("total internal reflection {reflections} at"), at));
+            notes.push(Note::vector("J (exit)", next));
+        }
+        Step::Left(v_t) => notes.push(Note::vector("v_t = VctTransmis(u_t, N_j, n)", v_t)),
+    });
+    match result {
+        Some(p) => notes.push(Note::number("length inside", p.length)),
+        None => notes.push(Note::text("R_t", "never leaves (trapped, or no exit found): brings nothing")),
+    }
+    notes
 }
 
 /// `VctTransmis` through the surface of `at` with the index ratio `delta`, about the shading

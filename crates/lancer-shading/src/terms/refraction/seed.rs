@@ -18,8 +18,8 @@
 
 use glam::Vec3;
 
-use super::passage;
-use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec};
+use super::{passage, passage_notes};
+use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `refraction`, variant `seed`.
 pub const SPEC: TermSpec = TermSpec {
@@ -33,6 +33,15 @@ pub const SPEC: TermSpec = TermSpec {
 struct Refraction;
 
 impl Term for Refraction {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        let mut notes = vec![Note::number("alpha (weight of R_t)", m.alpha), Note::number("n", m.n)];
+        if m.alpha > 0.0 {
+            notes.extend(passage_notes(ctx, &ctx.hit(chunk.hits, lane), chunk.rays.dir[lane], m.n));
+        }
+        notes
+    }
+
     fn reads_lights(&self, _: &lancer_core::Material) -> bool {
         false
     }

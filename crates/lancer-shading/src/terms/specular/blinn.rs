@@ -13,7 +13,7 @@
 
 use super::{EXPONENT, blinn_exponent, half_vector_lobe, read_exponent};
 use crate::term::facing;
-use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec, sum_lights};
+use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec, lit_by, sum_lights};
 
 /// The spec registered as `specular`, variant `blinn`.
 pub const SPEC: TermSpec = TermSpec {
@@ -29,6 +29,21 @@ struct Blinn {
 }
 
 impl Term for Blinn {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        let (_, n) = facing(&chunk, lane);
+        let u = chunk.rays.dir[lane];
+        let mut notes = vec![Note::number("spec", m.spec), Note::number("shine", m.shine)];
+        let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { return notes };
+        notes.push(Note::number(if self.exponent.is_some() { "exponent" } else { "exponent 4/(1−shine)" }, e));
+        for (k, _, w) in lit_by(&chunk, lane, n) {
+            let h = (w - u).normalize_or_zero();
+            notes.push(Note::number(format!("light {k}: N·h"), n.dot(h)));
+            notes.push(Note::number(format!("light {k}: (N·h)^exponent"), half_vector_lobe(n, w, u, e)));
+        }
+        notes
+    }
+
     fn reads_lights(&self, material: &lancer_core::Material) -> bool {
         material.spec > 0.0 && material.shine > 0.0
     }

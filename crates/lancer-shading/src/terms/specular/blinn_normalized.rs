@@ -16,7 +16,7 @@ use std::f32::consts::PI;
 
 use super::{EXPONENT, blinn_exponent, half_vector_lobe, read_exponent};
 use crate::term::facing;
-use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec, sum_lights};
+use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec, lit_by, sum_lights};
 
 /// The spec registered as `specular`, variant `blinn-normalized`.
 pub const SPEC: TermSpec = TermSpec {
@@ -32,6 +32,22 @@ struct BlinnNormalized {
 }
 
 impl Term for BlinnNormalized {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        let (_, n) = facing(&chunk, lane);
+        let u = chunk.rays.dir[lane];
+        let mut notes = vec![Note::number("spec", m.spec)];
+        let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { return notes };
+        notes.push(Note::number(if self.exponent.is_some() { "exponent" } else { "exponent 4/(1−shine)" }, e));
+        notes.push(Note::number("(e + 8)/(8π)", (e + 8.0) / (8.0 * PI)));
+        for (k, nw, w) in lit_by(&chunk, lane, n) {
+            let h = (w - u).normalize_or_zero();
+            notes.push(Note::number(format!("light {k}: N·h"), n.dot(h)));
+            notes.push(Note::number(format!("light {k}: N·w"), nw));
+        }
+        notes
+    }
+
     fn reads_lights(&self, material: &lancer_core::Material) -> bool {
         material.spec > 0.0
     }

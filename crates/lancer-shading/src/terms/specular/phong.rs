@@ -13,7 +13,7 @@
 //! ```
 
 use crate::term::facing;
-use crate::{Chunk, Params, ShadeContext, Term, TermOutput, TermSpec, sum_lights};
+use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec, lit_by, sum_lights};
 
 /// The spec registered as `specular`, variant `phong`.
 pub const SPEC: TermSpec = TermSpec {
@@ -37,6 +37,22 @@ pub fn phong_factor(shine: f32, c: f32) -> f32 {
 }
 
 impl Term for Phong {
+    fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
+        let m = ctx.material(chunk.hits, lane);
+        let (_, n) = facing(&chunk, lane);
+        let u = chunk.rays.dir[lane];
+        let mut notes = vec![Note::number("spec", m.spec), Note::number("shine", m.shine)];
+        if m.shine < 1.0 {
+            notes.push(Note::number("exponent 1/(1−shine)", 1.0 / (1.0 - m.shine)));
+        }
+        for (k, nw, w) in lit_by(&chunk, lane, n) {
+            let c = -u.dot(2.0 * nw * n - w);
+            notes.push(Note::number(format!("light {k}: −u·w_r"), c));
+            notes.push(Note::number(format!("light {k}: shine·max(−u·w_r, 0)^exponent"), phong_factor(m.shine, c)));
+        }
+        notes
+    }
+
     fn reads_lights(&self, material: &lancer_core::Material) -> bool {
         material.spec > 0.0 && material.shine > 0.0 && material.shine < 1.0
     }
