@@ -107,6 +107,12 @@ struct RenderArgs {
     /// No progress bar or summary line.
     #[arg(short, long)]
     quiet: bool,
+    /// Print render statistics: rays by kind, time per system, rays per second per thread.
+    #[arg(long)]
+    stats: bool,
+    /// Write the render statistics as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    stats_json: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -281,28 +287,43 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     };
+    let timing = args.stats || args.stats_json.is_some();
     let start = Instant::now();
     let frame = pool
-        .install(|| lancer_shading::render(&scene, &pipeline, RenderOptions { progress: Some(&progress) }))
+        .install(|| lancer_shading::render(&scene, &pipeline, RenderOptions { progress: Some(&progress), timing }))
         .with_context(|| format!("preparing {name}"))?;
     let elapsed = start.elapsed();
     bar.finish_and_clear();
 
+    let run = crate::stats::Run {
+        scene: &name,
+        image: &scene.image,
+        pipeline: &pipeline,
+        stats: &frame.stats,
+        elapsed,
+        threads: pool.current_num_threads(),
+    };
     let beauty = frame.beauty();
     pool.install(|| -> Result<()> {
         format.write(&args.output, frame.width, frame.height, &beauty)?;
         if let Some(dir) = &args.aov {
-            write_aovs(dir, &frame, &beauty, args.aov_format)?;
+            write_aovs(dir, &frame, &beauty, args.aov_format, &run)?;
+        }
+        if let Some(path) = &args.stats_json {
+            crate::output::write_atomic(path, run.json(&[]).as_bytes())
+                .with_context(|| format!("writing {}", path.display()))?;
         }
         Ok(())
     })?;
+    if args.stats {
+        eprint!("{}", run.text());
+    }
     if !args.quiet {
         eprintln!(
-            "rendered {name} at {}x{} ({} spp, {} terms) in {:.3} s: {:.2} M rays ({} camera, {} secondary, {} shadow), {:.1} M rays/s -> {}{} (scene loaded in {:.3} s{})",
+            "rendered {name} at {}x{} ({}) in {:.3} s: {:.2} M rays ({} camera, {} secondary, {} shadow), {:.1} M rays/s -> {}{} (scene loaded in {:.3} s{})",
             frame.width,
             frame.height,
-            scene.image.samples,
-            pipeline.terms.len(),
+            crate::stats::effective_model(&pipeline, &scene.image),
             elapsed.as_secs_f64(),
             frame.stats.total() as f64 / 1e6,
             frame.stats.camera_rays,
@@ -346,8 +367,21 @@ fn peak_memory() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// One EXR and one PNG per term, the background layer when it is not black, and the beauty image.
-fn write_aovs(dir: &Path, frame: &Frame, beauty: &[glam::Vec3], which: AovFormat) -> Result<()> {
+/// The manifest `--aov` writes beside the images: the effective model, the statistics, and the
+/// files written (so the next render into the folder knows which images were its
+/// predecessor's).
+const MANIFEST: &str = "manifest.json";
+
+/// One EXR and one PNG per term, the background layer when it is not black, the beauty image,
+/// and the manifest. Images an earlier render listed in the folder's manifest that this one does
+/// not write are removed: they would no longer sum to the beauty image.
+fn write_aovs(
+    dir: &Path,
+    frame: &Frame,
+    beauty: &[glam::Vec3],
+    which: AovFormat,
+    run: &crate::stats::Run<'_>,
+) -> Result<()> {
     let mut images: Vec<(&str, &[glam::Vec3])> = Vec::new();
     for layer in &frame.layers {
         if layer.name == BACKGROUND && layer.pixels.iter().all(|p| *p == glam::Vec3::ZERO) {
@@ -369,8 +403,28 @@ fn write_aovs(dir: &Path, frame: &Frame, beauty: &[glam::Vec3], which: AovFormat
     use rayon::prelude::*;
     let jobs: Vec<(&str, &[glam::Vec3], Format)> =
         images.iter().flat_map(|&(name, px)| formats.iter().map(move |&f| (name, px, f))).collect();
+    let file_name =
+        |name: &str, format: Format| format!("{name}.{}", if format == Format::Exr { "exr" } else { "png" });
+    let files: Vec<String> = jobs.iter().map(|&(name, _, format)| file_name(name, format)).collect();
+    let earlier = earlier_files(&dir.join(MANIFEST));
     jobs.into_par_iter().try_for_each(|(name, pixels, format)| {
-        let ext = if format == Format::Exr { "exr" } else { "png" };
-        format.write(&dir.join(format!("{name}.{ext}")), frame.width, frame.height, pixels)
-    })
+        format.write(&dir.join(file_name(name, format)), frame.width, frame.height, pixels)
+    })?;
+    for stale in earlier.iter().filter(|f| !files.contains(f)) {
+        // Only plain names a manifest of ours could list: never a path out of the folder.
+        if Path::new(stale).file_name().is_some_and(|n| n == stale.as_str()) {
+            let _ = std::fs::remove_file(dir.join(stale));
+        }
+    }
+    crate::output::write_atomic(&dir.join(MANIFEST), run.json(&files).as_bytes())
+}
+
+/// The files an earlier render's manifest lists (none if there is no readable manifest).
+fn earlier_files(manifest: &Path) -> Vec<String> {
+    let Ok(text) = std::fs::read_to_string(manifest) else { return Vec::new() };
+    let Ok(doc) = serde_json::from_str::<serde_json::Value>(&text) else { return Vec::new() };
+    doc["files"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|f| f.as_str().map(str::to_owned)).collect())
+        .unwrap_or_default()
 }

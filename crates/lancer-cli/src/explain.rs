@@ -8,6 +8,8 @@ use lancer_core::frame::BACKGROUND;
 use lancer_shading::{NoteValue, Pipeline, PixelExplanation, RayNode};
 use serde::Serialize;
 
+use crate::stats::Ordered;
+
 /// An explanation with what it needs to name things.
 pub struct Report<'a> {
     /// How the scene is named.
@@ -200,7 +202,7 @@ impl Report<'_> {
                 max_depth: self.pipeline.max_depth,
             },
             rays: roots,
-            terms: Images(self.layers().map(|(name, value)| (name, value.to_array())).collect()),
+            terms: self.layers().map(|(name, value)| (name, value.to_array())).collect(),
             beauty: e.beauty.to_array(),
         };
         serde_json::to_string_pretty(&doc).expect("plain data serialises")
@@ -273,22 +275,8 @@ struct JsonDoc<'a> {
     samples: u32,
     model: JsonModel<'a>,
     rays: Vec<JsonRay<'a>>,
-    terms: Images<'a>,
+    terms: Ordered<'a, [f32; 3]>,
     beauty: [f32; 3],
-}
-
-/// Image names to values, as a JSON object in frame order.
-struct Images<'a>(Vec<(&'a str, [f32; 3])>);
-
-impl Serialize for Images<'_> {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        let mut map = s.serialize_map(Some(self.0.len()))?;
-        for (name, value) in &self.0 {
-            map.serialize_entry(name, value)?;
-        }
-        map.end()
-    }
 }
 
 #[derive(Serialize)]

@@ -6,5 +6,6 @@ mod app;
 mod explain;
 pub mod listing;
 pub mod output;
+mod stats;
 
 pub use app::{DEFAULT_SCENE, main_with};

@@ -43,7 +43,9 @@ fn aov_writes_every_term_and_beauty_and_the_exrs_sum_to_beauty() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(o.stderr.is_empty(), "--quiet prints nothing: {}", stderr(&o));
     let names = ["ambient", "background", "beauty", "diffuse", "mirror", "refraction", "specular"];
-    let want: Vec<String> = names.iter().flat_map(|n| [format!("{n}.exr"), format!("{n}.png")]).collect();
+    let mut want: Vec<String> = names.iter().flat_map(|n| [format!("{n}.exr"), format!("{n}.png")]).collect();
+    want.push("manifest.json".to_owned());
+    want.sort();
     assert_eq!(files(&dir.path().join("aov")), want);
     let read = |p: &str| image::open(dir.path().join(p)).unwrap().into_rgb32f();
     let beauty = read("aov/beauty.exr");
@@ -80,7 +82,8 @@ fn one_and_two_threads_write_identical_bytes() {
     }
     let read = |p: &str| std::fs::read(dir.path().join(p)).unwrap();
     assert_eq!(read("t1.png"), read("t2.png"));
-    for f in files(&dir.path().join("aov1")) {
+    // Every image; the manifest records times and threads, which differ.
+    for f in files(&dir.path().join("aov1")).into_iter().filter(|f| f != "manifest.json") {
         assert_eq!(read(&format!("aov1/{f}")), read(&format!("aov2/{f}")), "{f}");
     }
 }
@@ -150,7 +153,7 @@ fn a_model_file_replaces_the_scenes_model() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         files(&dir.path().join("aov")),
-        ["ambient.exr", "ambient.png", "background.exr", "background.png", "beauty.exr", "beauty.png"]
+        ["ambient.exr", "ambient.png", "background.exr", "background.png", "beauty.exr", "beauty.png", "manifest.json"]
     );
 }
 
@@ -199,10 +202,13 @@ fn terms_flag_picks_terms_and_variants() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let want = ["background", "beauty", "diffuse", "specular"];
-    assert_eq!(
-        files(&dir.path().join("aov")),
-        want.iter().flat_map(|n| [format!("{n}.exr"), format!("{n}.png")]).collect::<Vec<_>>()
-    );
+    let mut want: Vec<String> = want
+        .iter()
+        .flat_map(|n| [format!("{n}.exr"), format!("{n}.png")])
+        .chain(["manifest.json".to_owned()])
+        .collect();
+    want.sort();
+    assert_eq!(files(&dir.path().join("aov")), want);
     let o = lancer(dir.path(), &["render", "--terms", "diffuse,specullar", "-o", "x.png"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("unknown term `specullar` (did you mean `specular`?)"), "{}", stderr(&o));
@@ -292,8 +298,10 @@ fn explain_json_totals_are_the_aov_exr_values_of_the_pixel() {
         args.extend_from_slice(extra);
         let o = lancer(dir.path(), &args);
         assert!(o.status.success(), "{}", stderr(&o));
-        let aov: Vec<String> =
-            files(&dir.path().join("aov")).into_iter().map(|f| f.trim_end_matches(".exr").to_owned()).collect();
+        let aov: Vec<String> = files(&dir.path().join("aov"))
+            .into_iter()
+            .filter_map(|f| f.strip_suffix(".exr").map(str::to_owned))
+            .collect();
         for &(x, y) in *pixels {
             let pixel = format!("{x},{y}");
             let mut args = vec!["explain", &path[..], "--width", "64", "--pixel", &pixel, "--json"];
@@ -335,4 +343,88 @@ fn explain_refuses_a_pixel_outside_the_image() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("expected X,Y"), "{}", stderr(&o));
     assert!(files(dir.path()).is_empty());
+}
+
+#[test]
+fn stats_report_rays_by_kind_and_time_per_system() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = lancer(
+        dir.path(),
+        &["render", &scene("glass.toml"), "--width", "64", "-o", "out.png", "--stats", "--stats-json", "stats.json"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stderr(&o);
+    for words in [
+        "Render Statistics",
+        "Camera Rays:",
+        "Reflected Rays:",
+        "Refracted Rays:",
+        "Shadow Ray Tests:",
+        "trace (closest hits)",
+        "term diffuse",
+        "Rays per second per thread",
+    ] {
+        assert!(text.contains(words), "--stats says {words}: {text}");
+    }
+    let doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    let rays = &doc["rays"];
+    assert_eq!(rays["camera"], 64 * 36);
+    let spawned: u64 = rays["spawned_by_term"].as_object().unwrap().values().map(|v| v.as_u64().unwrap()).sum();
+    assert_eq!(spawned, rays["secondary"].as_u64().unwrap(), "every secondary ray was spawned by a term");
+    assert!(rays["spawned_by_term"]["refraction"].as_u64().unwrap() > 0);
+    assert!(doc["system_thread_seconds"]["trace"].as_f64().unwrap() > 0.0);
+    assert_eq!(doc["model"]["shadows"]["name"], "transmissive");
+}
+
+#[test]
+fn the_summary_line_shows_the_effective_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = lancer(
+        dir.path(),
+        &["render", &scene("glass.toml"), "--width", "32", "--terms", "ambient,specular:blinn", "--samples", "2"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o)
+            .contains("terms ambient:seed, specular:blinn; shadows transmissive; max_depth 5; 2 samples per pixel"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn regression_aov_images_of_an_earlier_render_with_other_terms_are_removed() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |terms: &str| {
+        let o = lancer(
+            dir.path(),
+            &[
+                "render",
+                &scene("glass.toml"),
+                "--width",
+                "32",
+                "--aov",
+                "aov",
+                "--aov-format",
+                "exr",
+                "--terms",
+                terms,
+                "-q",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    run("ambient,diffuse,specular");
+    std::fs::write(dir.path().join("aov/notes.txt"), "mine").unwrap();
+    run("ambient,diffuse");
+    assert_eq!(
+        files(&dir.path().join("aov")),
+        ["ambient.exr", "background.exr", "beauty.exr", "diffuse.exr", "manifest.json", "notes.txt"],
+        "specular.exr from the first render is gone; files Lancer did not write stay"
+    );
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("aov/manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["model"]["terms"].as_array().unwrap().len(), 2);
+    assert_eq!(manifest["files"].as_array().unwrap().len(), 4);
 }

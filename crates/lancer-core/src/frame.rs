@@ -1,6 +1,8 @@
 //! The rendered frame: one linear float image per term (plus the background seen by camera rays),
 //! whose exact sum is the beauty image.
 
+use std::time::Duration;
+
 use glam::Vec3;
 
 /// Name of the layer holding what camera rays that hit nothing see.
@@ -15,8 +17,8 @@ pub struct Layer {
     pub pixels: Vec<Vec3>,
 }
 
-/// Ray counts of a render (the same for any thread count).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Ray counts of a render (the same for any thread count), and where the time went when asked.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RenderStats {
     /// Rays from the camera.
     pub camera_rays: u64,
@@ -28,6 +30,48 @@ pub struct RenderStats {
     /// The most ray lanes alive at once in one tile's generation: bounded by the size of a wave
     /// of camera rays (and its children), whatever the number of samples per pixel.
     pub peak_lanes: u64,
+    /// Child rays queued by each term, in model order (mirror: reflected rays; refraction:
+    /// refracted ones).
+    pub spawned: Vec<u64>,
+    /// The deepest generation traced (0: camera rays only).
+    pub max_level: u8,
+    /// Time spent in each system, summed over threads (zero unless the render was asked to
+    /// time itself).
+    pub times: SystemTimes,
+}
+
+/// Thread time per system of the render loop.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SystemTimes {
+    /// Making camera rays.
+    pub camera: Duration,
+    /// Closest hits (the trace system).
+    pub trace: Duration,
+    /// Light visibility (the shadow model's rays).
+    pub visibility: Duration,
+    /// The background seen by rays that hit nothing.
+    pub background: Duration,
+    /// Each term, in model order.
+    pub terms: Vec<Duration>,
+    /// Building and recycling ray chunks between generations, copying tiles into the frame.
+    pub chunks: Duration,
+}
+
+impl SystemTimes {
+    /// Every system together.
+    pub fn total(&self) -> Duration {
+        self.camera + self.trace + self.visibility + self.background + self.chunks + self.terms.iter().sum::<Duration>()
+    }
+}
+
+/// `a[i] += b[i]`, growing `a` to `b`'s length.
+fn add_each<T: Copy + Default + std::ops::AddAssign>(a: &mut Vec<T>, b: &[T]) {
+    if a.len() < b.len() {
+        a.resize(b.len(), T::default());
+    }
+    for (x, y) in a.iter_mut().zip(b) {
+        *x += *y;
+    }
 }
 
 impl RenderStats {
@@ -43,6 +87,15 @@ impl std::ops::AddAssign for RenderStats {
         self.secondary_rays += o.secondary_rays;
         self.shadow_rays += o.shadow_rays;
         self.peak_lanes = self.peak_lanes.max(o.peak_lanes);
+        add_each(&mut self.spawned, &o.spawned);
+        self.max_level = self.max_level.max(o.max_level);
+        let (t, u) = (&mut self.times, &o.times);
+        t.camera += u.camera;
+        t.trace += u.trace;
+        t.visibility += u.visibility;
+        t.background += u.background;
+        t.chunks += u.chunks;
+        add_each(&mut t.terms, &u.terms);
     }
 }
 

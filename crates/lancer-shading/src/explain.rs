@@ -120,7 +120,7 @@ pub fn explain_pixel(
     let mut scratch = Scratch::new(pipeline.terms.len() + 1);
     let mut recorder = Recorder::default();
     let tile = Tile { x0: x, y0: y, w: 1, h: 1 };
-    render_tile(&ctx, camera, image, pipeline, tile, &mut scratch, Some(&mut recorder));
+    render_tile(&ctx, camera, image, pipeline, tile, &mut scratch, Some(&mut recorder), false);
     let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
     names.push(BACKGROUND.to_owned());
     let layers: Vec<(String, Vec3)> = names.into_iter().zip(scratch.accum.iter().map(|acc| acc[0])).collect();

@@ -11,6 +11,17 @@ pub enum ParamValue {
     Text(String),
 }
 
+impl std::fmt::Display for ParamValue {
+    /// As TOML writes it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ParamValue::Number(x) => write!(f, "{x}"),
+            ParamValue::Bool(b) => write!(f, "{b}"),
+            ParamValue::Text(t) => write!(f, "{t:?}"),
+        }
+    }
+}
+
 impl ParamValue {
     fn kind(&self) -> &'static str {
         match self {
@@ -53,6 +64,11 @@ impl Params {
     /// Parameters from `(key, value)` pairs.
     pub fn new(values: impl IntoIterator<Item = (String, ParamValue)>) -> Params {
         Params { values: values.into_iter().map(|(k, v)| (k, v, false)).collect() }
+    }
+
+    /// The parameters given, in order.
+    pub fn given(&self) -> impl Iterator<Item = (&str, &ParamValue)> {
+        self.values.iter().map(|(k, v, _)| (k.as_str(), v))
     }
 
     fn take(&mut self, name: &str) -> Option<ParamValue> {

@@ -1,6 +1,6 @@
 //! The registry: terms and shadow models found by name, and the pipeline a model builds from it.
 
-use crate::{ParamError, ParamSpec, Params, ShadowModel, Term};
+use crate::{ParamError, ParamSpec, ParamValue, Params, ShadowModel, Term};
 
 /// How to build one term variant. A user crate fills one in and calls
 /// [`Registry::register_term`].
@@ -134,6 +134,8 @@ pub struct NamedTerm {
     pub variant: String,
     /// The `weight` parameter: a factor on the term's whole contribution.
     pub weight: f32,
+    /// The parameters it was built with (as given; the others have their defaults).
+    pub params: Vec<(String, ParamValue)>,
     /// The system.
     pub term: Box<dyn Term>,
 }
@@ -142,6 +144,8 @@ pub struct NamedTerm {
 pub struct NamedShadow {
     /// Its name.
     pub name: String,
+    /// The parameters it was built with (as given; the others have their defaults).
+    pub params: Vec<(String, ParamValue)>,
     /// The model.
     pub model: Box<dyn ShadowModel>,
 }
@@ -258,12 +262,13 @@ impl Registry {
                 known: variants.iter().map(|t| t.variant.to_owned()).collect(),
             })?,
         };
+        let given = params.given().map(|(k, v)| (k.to_owned(), v.clone())).collect();
         let bad = |error| ModelError::BadParam { owner: name.to_owned(), error };
         let weight = params.number(WEIGHT.name, 1.0, 0.0, f32::MAX as f64).map_err(bad)? as f32;
         let term = (spec.build)(&mut params).map_err(bad)?;
         let known: Vec<ParamSpec> = spec.params.iter().copied().chain([WEIGHT]).collect();
         unused_param(name, &params, &known)?;
-        Ok(NamedTerm { name: name.to_owned(), variant: spec.variant.to_owned(), weight, term })
+        Ok(NamedTerm { name: name.to_owned(), variant: spec.variant.to_owned(), weight, params: given, term })
     }
 
     /// Builds shadow model `name` from `params`.
@@ -275,10 +280,11 @@ impl Registry {
                 known: self.shadows.iter().map(|s| s.name.to_owned()).collect(),
             });
         };
+        let given = params.given().map(|(k, v)| (k.to_owned(), v.clone())).collect();
         let model =
             (spec.build)(&mut params).map_err(|error| ModelError::BadParam { owner: name.to_owned(), error })?;
         unused_param(name, &params, spec.params)?;
-        Ok(NamedShadow { name: name.to_owned(), model })
+        Ok(NamedShadow { name: name.to_owned(), params: given, model })
     }
 
     /// Every built-in term, default variant, in the handout's order.

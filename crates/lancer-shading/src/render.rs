@@ -19,6 +19,28 @@ pub const TILE: u32 = 16;
 pub struct RenderOptions<'a> {
     /// Called once per finished tile with (tiles done, tiles in all), from any thread.
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
+    /// Measure the time spent in each system ([`RenderStats::times`]); it costs a clock reading
+    /// per system and generation.
+    pub timing: bool,
+}
+
+/// A stopwatch that charges the time since its last reading to a system, when timing is on.
+struct Lap(Option<std::time::Instant>);
+
+impl Lap {
+    fn new(on: bool) -> Lap {
+        Lap(on.then(std::time::Instant::now))
+    }
+
+    /// Adds the time since the last reading to `into`.
+    #[inline]
+    fn charge(&mut self, into: &mut std::time::Duration) {
+        if let Some(last) = self.0 {
+            let now = std::time::Instant::now();
+            *into += now - last;
+            self.0 = Some(now);
+        }
+    }
 }
 
 /// Prepares `scene` and renders it with `pipeline` on the current rayon pool.
@@ -71,7 +93,8 @@ pub fn render_prepared(
                 let y0 = band as u32 * TILE;
                 for x0 in (0..width).step_by(TILE as usize) {
                     let tile = Tile { x0, y0, w: TILE.min(width - x0), h: TILE.min(height - y0) };
-                    stats += render_tile(&ctx, camera, image, pipeline, tile, scratch, None);
+                    stats += render_tile(&ctx, camera, image, pipeline, tile, scratch, None, options.timing);
+                    let mut lap = Lap::new(options.timing);
                     // The tile's pixels into the band's rows of every layer.
                     for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
                         for row in 0..tile.h as usize {
@@ -80,6 +103,7 @@ pub fn render_prepared(
                             layer[at..at + tile.w as usize].copy_from_slice(src);
                         }
                     }
+                    lap.charge(&mut stats.times.chunks);
                     if let Some(progress) = options.progress {
                         progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, tiles_count);
                     }
@@ -215,6 +239,7 @@ pub(crate) fn render_tile(
     tile: Tile,
     scratch: &mut Scratch,
     mut recorder: Option<&mut crate::explain::Recorder>,
+    timing: bool,
 ) -> RenderStats {
     let pixels = (tile.w * tile.h) as usize;
     let background_layer = pipeline.terms.len();
@@ -223,7 +248,13 @@ pub(crate) fn render_tile(
         acc.resize(pixels, Vec3::ZERO);
     }
     let shadow_ctx = ShadowContext::new(ctx);
-    let mut stats = RenderStats::default();
+    let mut stats = RenderStats {
+        spawned: vec![0; pipeline.terms.len()],
+        times: lancer_core::SystemTimes { terms: vec![Default::default(); pipeline.terms.len()], ..Default::default() },
+        ..RenderStats::default()
+    };
+    let mut lap = Lap::new(timing);
+    let times = &mut stats.times;
     let spp = image.samples.max(1) as usize;
     let lanes = if recorder.is_some() { 1 } else { CHUNK_LANES };
     for wave in waves(pixels, spp) {
@@ -232,17 +263,24 @@ pub(crate) fn render_tile(
         if let Some(r) = recorder.as_deref_mut() {
             r.camera_rays(wave, spp);
         }
-        loop {
+        lap.charge(&mut times.camera);
+        for level in 0u8.. {
+            stats.max_level = stats.max_level.max(level);
             stats.peak_lanes = stats.peak_lanes.max(scratch.next.len() as u64);
             scratch.spawn_chunks(ctx.lights.len(), lanes);
+            lap.charge(&mut times.chunks);
             let Scratch { world, next, accum, .. } = scratch;
             trace_system(world, ctx);
+            lap.charge(&mut times.trace);
             visibility_system(world, ctx, &shadow_ctx, pipeline);
+            lap.charge(&mut times.visibility);
             if let Some(r) = recorder.as_deref_mut() {
                 r.generation(world, ctx, pipeline, image.background);
             }
             background_system(world, image.background, background_layer, accum);
+            lap.charge(&mut times.background);
             for (layer, named) in pipeline.terms.iter().enumerate() {
+                let queued = next.len();
                 for (c, (rays, hits, lights)) in world.query::<(&Rays, &Hits, &LightSamples)>().iter().enumerate() {
                     let before = next.len();
                     let mut added = Vec::new();
@@ -263,8 +301,11 @@ pub(crate) fn render_tile(
                         r.term_ran(c, layer, notes, added, before..next.len());
                     }
                 }
+                stats.spawned[layer] += (next.len() - queued) as u64;
+                lap.charge(&mut times.terms[layer]);
             }
             scratch.recycle();
+            lap.charge(&mut times.chunks);
             if scratch.next.is_empty() {
                 break;
             }
