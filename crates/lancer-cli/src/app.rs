@@ -24,17 +24,24 @@ const DEFAULT_SCENE_NAME: &str = "scenes/showcase.toml (embedded default)";
 #[command(
     name = "lancer",
     version,
-    about = "Lancer: a Whitted ray tracer whose illumination model is a list of pluggable terms"
+    about = "Lancer: a Whitted ray tracer whose illumination model is a list of pluggable terms",
+    // `lancer scene.toml -o out.png` is `lancer render scene.toml -o out.png`.
+    args_conflicts_with_subcommands = true
 )]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
+    #[command(flatten)]
+    render: RenderArgs,
 }
 
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (the embedded showcase when no SCENE is given).
     Render(RenderArgs),
+    /// Load and prepare a scene without rendering it: a summary, and warnings about what it
+    /// probably does not mean.
+    Check(CheckArgs),
     /// Explain one pixel: its ray tree, the light at each hit, every term's inputs and
     /// contribution, and the per-term totals (the values `--aov` writes there).
     Explain(ExplainArgs),
@@ -116,6 +123,12 @@ struct RenderArgs {
 }
 
 #[derive(Args)]
+struct CheckArgs {
+    #[command(flatten)]
+    input: SceneArgs,
+}
+
+#[derive(Args)]
 struct ExplainArgs {
     #[command(flatten)]
     input: SceneArgs,
@@ -156,15 +169,9 @@ pub fn main_with(registry: Registry) -> ExitCode {
 
 fn run(cli: Cli, registry: &Registry) -> Result<()> {
     match cli.command {
-        None => render(
-            registry,
-            RenderArgs {
-                output: "render.png".into(),
-                input: SceneArgs { max_file_size: MAX_FILE_MB, ..SceneArgs::default() },
-                ..RenderArgs::default()
-            },
-        ),
+        None => render(registry, cli.render),
         Some(Command::Render(args)) => render(registry, args),
+        Some(Command::Check(args)) => check(registry, args),
         Some(Command::Explain(args)) => explain(registry, args),
         Some(Command::Terms) => {
             print!("{}", crate::listing::terms(registry));
@@ -199,6 +206,10 @@ fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
 struct Loaded {
     scene: lancer_core::Scene,
     pipeline: Pipeline,
+    /// What loading found to warn about.
+    warnings: Vec<lancer_scene::Warning>,
+    /// Where the scene's parts are in its file.
+    places: lancer_scene::Places,
     /// How the scene is named in messages.
     name: String,
     load_time: std::time::Duration,
@@ -217,7 +228,7 @@ fn load(registry: &Registry, args: &SceneArgs) -> Result<Loaded> {
     let load_start = Instant::now();
     let loaded = lancer_scene::load_scene_with(&src, &name, registry, &resolve).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
-    let mut scene = loaded.scene;
+    let (mut scene, warnings, places) = (loaded.scene, loaded.warnings, loaded.places);
     let mut pipeline = match &args.model {
         Some(p) => lancer_scene::load_model(&read(p, "model", args.max_file_size)?, &p.display().to_string(), registry)
             .map_err(anyhow::Error::msg)?,
@@ -262,13 +273,63 @@ fn load(registry: &Registry, args: &SceneArgs) -> Result<Loaded> {
             img.height
         );
     }
-    Ok(Loaded { scene, pipeline, name, load_time })
+    Ok(Loaded { scene, pipeline, warnings, places, name, load_time })
+}
+
+impl Loaded {
+    /// Prepares the scene and gathers every warning: loading's, then the prepared scene's.
+    fn prepare(&self) -> Result<(lancer_shading::Prepared, Vec<lancer_scene::Warning>)> {
+        let prepared = lancer_shading::prepare(&self.scene).with_context(|| format!("preparing {}", self.name))?;
+        let mut warnings = self.warnings.clone();
+        warnings.extend(lancer_scene::check(&self.scene, &self.pipeline, &prepared, &self.places));
+        Ok((prepared, warnings))
+    }
+}
+
+fn check(registry: &Registry, args: CheckArgs) -> Result<()> {
+    let loaded = load(registry, &args.input)?;
+    let (prepared, warnings) = loaded.prepare()?;
+    let mut shapes: Vec<(&str, usize)> = Vec::new();
+    for o in &prepared.geometry.objects {
+        match shapes.iter_mut().find(|(n, _)| *n == o.shape.name()) {
+            Some((_, k)) => *k += 1,
+            None => shapes.push((o.shape.name(), 1)),
+        }
+    }
+    let shapes: Vec<String> = shapes.iter().map(|(n, k)| format!("{k} {n}")).collect();
+    let img = &loaded.scene.image;
+    println!("{}: loads and prepares", loaded.name);
+    println!(
+        "  {} object(s) ({}), {} light(s), {} material(s)",
+        prepared.geometry.objects.len(),
+        shapes.join(", "),
+        prepared.lights.len(),
+        // The prepared table ends with the default material for objects that name none.
+        prepared.materials.len() - 1
+    );
+    println!("  image {}x{}; model: {}", img.width, img.height, crate::stats::effective_model(&loaded.pipeline, img));
+    for w in &warnings {
+        println!("{w}");
+    }
+    println!("{} warning{}", warnings.len(), if warnings.len() == 1 { "" } else { "s" });
+    Ok(())
 }
 
 fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     // Check every output path before the (long) render, so a typo costs nothing.
     let format = Format::of(&args.output)?;
-    let Loaded { scene, pipeline, name, load_time } = load(registry, &args.input)?;
+    let loaded = load(registry, &args.input)?;
+    let (prepared, mut warnings) = loaded.prepare()?;
+    if args.aov.is_none() && args.aov_format != AovFormat::default() {
+        warnings.push(lancer_scene::Warning {
+            place: None,
+            message: "--aov-format has no effect without --aov DIR".to_owned(),
+        });
+    }
+    for w in &warnings {
+        eprintln!("{w}");
+    }
+    let Loaded { scene, pipeline, name, load_time, .. } = loaded;
     if let Some(dir) = &args.aov {
         crate::output::create_output_dir(dir).context("creating the AOV directory")?;
     }
@@ -289,9 +350,15 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
     };
     let timing = args.stats || args.stats_json.is_some();
     let start = Instant::now();
-    let frame = pool
-        .install(|| lancer_shading::render(&scene, &pipeline, RenderOptions { progress: Some(&progress), timing }))
-        .with_context(|| format!("preparing {name}"))?;
+    let frame = pool.install(|| {
+        lancer_shading::render_prepared(
+            &prepared,
+            &scene.camera,
+            &scene.image,
+            &pipeline,
+            RenderOptions { progress: Some(&progress), timing },
+        )
+    });
     let elapsed = start.elapsed();
     bar.finish_and_clear();
 
@@ -340,13 +407,17 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
 }
 
 fn explain(registry: &Registry, args: ExplainArgs) -> Result<()> {
-    let Loaded { scene, pipeline, name, .. } = load(registry, &args.input)?;
+    let loaded = load(registry, &args.input)?;
+    let (prepared, warnings) = loaded.prepare()?;
+    for w in &warnings {
+        eprintln!("{w}");
+    }
+    let Loaded { scene, pipeline, name, .. } = loaded;
     let (x, y) = args.pixel;
     let (w, h) = (scene.image.width, scene.image.height);
     if x >= w || y >= h {
         bail!("pixel {x},{y} is outside the {w}x{h} image (columns 0..{}, rows 0..{})", w - 1, h - 1);
     }
-    let prepared = lancer_shading::prepare(&scene).with_context(|| format!("preparing {name}"))?;
     let explanation = lancer_shading::explain_pixel(&prepared, &scene.camera, &scene.image, &pipeline, x, y);
     let report =
         crate::explain::Report { scene: &name, image: &scene.image, pipeline: &pipeline, explanation: &explanation };

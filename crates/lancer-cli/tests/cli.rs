@@ -428,3 +428,86 @@ fn regression_aov_images_of_an_earlier_render_with_other_terms_are_removed() {
     assert_eq!(manifest["model"]["terms"].as_array().unwrap().len(), 2);
     assert_eq!(manifest["files"].as_array().unwrap().len(), 4);
 }
+
+/// A scene with every flaw `lancer check` knows: the camera inside a glass ball, a light inside
+/// an opaque ball, a glass ball reaching into a cube, an unused material, a colour above 1, and
+/// specular and mirror terms with no material to act on (every `spec` is 0).
+const FLAWED: &str = r#"[camera]
+from = [0, 1, -6]
+to = [0, 1, 0]
+
+[model]
+terms = ["ambient", "diffuse", "specular:blinn", "mirror"]
+
+[materials.unused]
+color = [0.5, 0.5, 0.5]
+
+[[lights]]
+at = [4, 1, 0]
+
+[[lights]]
+at = [0, 5, -5]
+
+[[objects]]
+shape = "sphere"
+scale = 0.5
+translate = [4, 1, 0]
+material = { color = [0.2, 0.2, 0.2] }
+
+[[objects]]
+shape = "sphere"
+translate = [0, 1, 0]
+material = { color = [1, 1, 1], alpha = 0.9, n = 1.5, ambi = 0, diff = 0 }
+
+[[objects]]
+shape = "cube"
+scale = 0.5
+translate = [0.8, 1, 0]
+material = { color = [1.2, 0.5, 0.5] }
+
+[[objects]]
+shape = "sphere"
+scale = 0.5
+translate = [0, 1, -6]
+material = { color = [0.5, 0.5, 1], alpha = 0.5 }
+"#;
+
+#[test]
+fn check_warns_about_a_flawed_scene_and_renders_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("flawed.toml"), FLAWED).unwrap();
+    let o = lancer(dir.path(), &["check", "flawed.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    for want in [
+        "flawed.toml: loads and prepares",
+        "4 object(s) (3 sphere, 1 cube), 2 light(s), 5 material(s)",
+        "warning: flawed.toml:8:1: material `unused` is defined but no object uses it",
+        "warning: flawed.toml:32:22: a material colour above 1 (1.2)",
+        "warning: flawed.toml:1:1: the camera is inside object 4 (sphere, flawed.toml:34:1)",
+        "warning: flawed.toml:11:1: light 1 is inside object 1 (sphere, flawed.toml:17:1): it lights nothing outside",
+        "warning: flawed.toml:23:1: transparent object 2 (sphere, flawed.toml:23:1) reaches into object 3 (cube, flawed.toml:28:1)",
+        "term `specular` adds nothing to this scene",
+        "term `mirror` adds nothing to this scene",
+    ] {
+        assert!(out.contains(want), "check says `{want}`:\n{out}");
+    }
+    assert!(!out.contains("light 2 is inside"), "{out}");
+    assert!(files(dir.path()) == ["flawed.toml"], "check writes nothing");
+    // A broken scene: the same located error as render, and a failure.
+    std::fs::write(dir.path().join("bad.toml"), "[camera]\nfrom = [0, 0]\n").unwrap();
+    let check = lancer(dir.path(), &["check", "bad.toml"]);
+    let render = lancer(dir.path(), &["render", "bad.toml"]);
+    assert!(!check.status.success() && !render.status.success());
+    assert!(stderr(&check).contains("bad.toml:2:"), "{}", stderr(&check));
+    assert_eq!(stderr(&check), stderr(&render));
+}
+
+#[test]
+fn a_scene_alone_renders_and_aov_format_without_aov_warns() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = lancer(dir.path(), &[&scene("glass.toml"), "--width", "32", "-o", "g.png", "--aov-format", "exr"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("warning: --aov-format has no effect without --aov DIR"), "{}", stderr(&o));
+    assert_eq!(files(dir.path()), ["g.png"]);
+}

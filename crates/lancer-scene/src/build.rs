@@ -13,7 +13,7 @@ use toml::Spanned;
 use crate::doc::{
     ColorDoc, MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, OperandDoc, PatternDoc, Scale, SceneDoc,
 };
-use crate::{LoadError, LoadErrorKind};
+use crate::{LoadError, LoadErrorKind, Place, Warning};
 
 /// A loaded scene file: the scene and the lighting model its `[model]` describes.
 pub struct Loaded {
@@ -21,6 +21,22 @@ pub struct Loaded {
     pub scene: Scene,
     /// The `[model]` table built against the registry (the full handout model when absent).
     pub pipeline: Pipeline,
+    /// What the file allows but probably does not mean (unused materials, colours above 1, no
+    /// lights, degenerate mesh triangles skipped).
+    pub warnings: Vec<Warning>,
+    /// Where each object, light and the camera are written, for later warnings.
+    pub places: Places,
+}
+
+/// Where the scene's parts are written in its file.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Places {
+    /// Each `[[objects]]` entry, in order (the prepared scene's object order).
+    pub objects: Vec<Place>,
+    /// Each `[[lights]]` entry, in order.
+    pub lights: Vec<Place>,
+    /// The `[camera]` table.
+    pub camera: Option<Place>,
 }
 
 struct Ctx<'a> {
@@ -29,6 +45,14 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
+    fn place(&self, span: Range<usize>) -> Place {
+        Place::of(self.file, self.src, span.start)
+    }
+
+    fn warn(&self, span: Range<usize>, message: String) -> Warning {
+        Warning { place: Some(self.place(span)), message }
+    }
+
     fn err(&self, span: Range<usize>, kind: LoadErrorKind) -> LoadError {
         LoadError::at(self.file, self.src, Some(span), kind)
     }
@@ -61,15 +85,27 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
 
     let mut textures = Textures { list: Vec::new(), by_path: HashMap::new(), resolve };
     let mut meshes = Meshes::default();
+    let mut warnings = Vec::new();
+    let mut places = Places { camera: Some(cx.place(doc.camera.span())), ..Places::default() };
     let mut named: HashMap<&str, hecs::Entity> = HashMap::new();
     for (name, m) in &doc.materials {
-        let m = material(&cx, m, &mut textures)?;
+        let m = material(&cx, m, &mut textures, &mut warnings)?;
         named.insert(name, world.spawn((m,)));
     }
     for l in &doc.lights {
+        places.lights.push(cx.place(l.span()));
+        let l = l.get_ref();
         world.spawn((Light { at: vec3(l.at), color: Vec3::from(l.color), intensity: l.intensity, size: l.size },));
     }
+    if doc.lights.is_empty() {
+        warnings.push(Warning {
+            place: None,
+            message: "the scene has no [[lights]]: only the ambient term and the background will show".into(),
+        });
+    }
+    let mut used: std::collections::HashSet<&str> = std::collections::HashSet::new();
     for o in &doc.objects {
+        places.objects.push(cx.place(o.span()));
         let obj = o.get_ref();
         let fields = ShapeFields {
             shape: &obj.shape,
@@ -94,27 +130,34 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
                     return Err(cx.err(span, LoadErrorKind::Syntax(format!("`{key}` does not apply to a mesh"))));
                 }
             }
-            Shape::Mesh(meshes.load(&cx, path, textures.resolve)?)
+            Shape::Mesh(meshes.load(&cx, path, textures.resolve, &mut warnings)?)
         } else {
             build_shape(&cx, &fields)?
         };
         let mat = match obj.material.as_ref().map(|m| (m.span(), m.get_ref())) {
             None => None,
             Some((_, MaterialRef::Inline(m))) => {
-                let m = material(&cx, m, &mut textures)?;
+                let m = material(&cx, m, &mut textures, &mut warnings)?;
                 Some(world.spawn((m,)))
             }
-            Some((span, MaterialRef::Named(name))) => Some(*named.get(name.as_str()).ok_or_else(|| {
-                let known: Vec<String> = doc.materials.keys().cloned().collect();
-                cx.err(
-                    span,
-                    LoadErrorKind::UnknownMaterial {
-                        name: name.clone(),
-                        nearest: lancer_shading::nearest(name, known.iter().map(String::as_str)),
-                        known,
-                    },
-                )
-            })?),
+            Some((span, MaterialRef::Named(name))) => Some(
+                *named
+                    .get(name.as_str())
+                    .inspect(|_| {
+                        used.insert(name.as_str());
+                    })
+                    .ok_or_else(|| {
+                        let known: Vec<String> = doc.materials.keys().cloned().collect();
+                        cx.err(
+                            span,
+                            LoadErrorKind::UnknownMaterial {
+                                name: name.clone(),
+                                nearest: lancer_shading::nearest(name, known.iter().map(String::as_str)),
+                                known,
+                            },
+                        )
+                    })?,
+            ),
         };
         let world_from_object = placement(obj.scale.as_ref(), obj.rotate, obj.translate);
         // The geometry's own test, here, so the error has a place in the file.
@@ -139,8 +182,16 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
         background: Vec3::from(doc.image.background),
         samples: doc.image.samples,
     };
+    for name in doc.materials.keys().filter(|n| !used.contains(n.as_str())) {
+        // Material names carry no span: the table's header or key is found in the text.
+        let at = [format!("[materials.{name}]"), format!("materials.{name}"), format!("{name} =")]
+            .iter()
+            .find_map(|k| src.find(k.as_str()))
+            .unwrap_or(0);
+        warnings.push(cx.warn(at..at, format!("material `{name}` is defined but no object uses it")));
+    }
     let meta = Meta { title: doc.meta.title, description: doc.meta.description };
-    Ok(Loaded { scene: Scene { world, camera, image, meta, textures: textures.list }, pipeline })
+    Ok(Loaded { scene: Scene { world, camera, image, meta, textures: textures.list }, pipeline, warnings, places })
 }
 
 /// Loads a model file (the keys of `[model]` at top level), replacing a scene's own model.
@@ -302,6 +353,7 @@ impl Meshes {
         cx: &Ctx<'_>,
         path: &Spanned<String>,
         resolve: Resolver<'_>,
+        warnings: &mut Vec<Warning>,
     ) -> Result<std::sync::Arc<Mesh>, LoadError> {
         if let Some(m) = self.by_path.get(path.get_ref()) {
             return Ok(m.clone());
@@ -337,6 +389,30 @@ impl Meshes {
                 uvs.extend(m.texcoords.chunks_exact(2).map(|t| glam::Vec2::new(t[0], t[1])));
             }
             triangles.extend(m.indices.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
+        }
+        // Renderers skip triangles with no area (real files have a few): say how many.
+        let before = triangles.len();
+        triangles.retain(|t| {
+            let corner = |i: u32| positions.get(i as usize).copied();
+            match (corner(t[0]), corner(t[1]), corner(t[2])) {
+                (Some(a), Some(b), Some(c)) => !lancer_shapes::degenerate(a, b, c),
+                // An index out of range: Mesh::new says which.
+                _ => true,
+            }
+        });
+        let skipped = before - triangles.len();
+        if skipped == before {
+            return Err(bad(format!("every triangle ({before}) is degenerate (its corners are on one line)")));
+        }
+        if skipped > 0 {
+            warnings.push(cx.warn(
+                path.span(),
+                format!(
+                    "mesh `{}`: {skipped} degenerate triangle{} (corners on one line) skipped of {before}",
+                    path.get_ref(),
+                    if skipped > 1 { "s" } else { "" }
+                ),
+            ));
         }
         let mesh = std::sync::Arc::new(Mesh::new(positions, normals, uvs, triangles).map_err(|e| bad(e.to_string()))?);
         self.by_path.insert(path.get_ref().clone(), mesh.clone());
@@ -440,11 +516,29 @@ impl Textures<'_> {
     }
 }
 
-fn material(cx: &Ctx<'_>, m: &MaterialDoc, textures: &mut Textures<'_>) -> Result<Material, LoadError> {
+fn material(
+    cx: &Ctx<'_>,
+    m: &MaterialDoc,
+    textures: &mut Textures<'_>,
+    warnings: &mut Vec<Warning>,
+) -> Result<Material, LoadError> {
     let (color, pattern) = match m.color.get_ref() {
         ColorDoc::Solid(c) => (Vec3::from(*c), Pattern::Solid),
         ColorDoc::Pattern(p) => pattern(cx, p, m.color.span(), textures)?,
     };
+    let brightest = match pattern {
+        Pattern::Checker { other, .. } => color.max(other),
+        _ => color,
+    };
+    if brightest.max_element() > 1.0 {
+        warnings.push(cx.warn(
+            m.color.span(),
+            format!(
+                "a material colour above 1 ({}): a surface reflects more light than it receives; the handout's colours are in [0, 1]",
+                brightest.max_element()
+            ),
+        ));
+    }
     Ok(Material { color, pattern, ambi: m.ambi, diff: m.diff, spec: m.spec, shine: m.shine, alpha: m.alpha, n: m.n })
 }
 
@@ -542,7 +636,7 @@ fn model_err(cx: &Ctx<'_>, entry: &Spanned<NamedDoc>, e: lancer_shading::ModelEr
         M::BadParam { error, .. } => {
             doc.params.iter().find(|(k, _)| *k.get_ref() == error.param).map(|(_, v)| v.span())
         }
-        M::UnknownVariant { .. } => doc.variant.as_ref().map(|v| v.span()),
+        M::UnknownVariant { .. } => doc.variant.as_ref().map(|v| v.span()).filter(|s| !s.is_empty()),
         _ => None,
     };
     cx.err(span.unwrap_or_else(|| name_span(entry)), LoadErrorKind::Model(e))
@@ -556,7 +650,12 @@ fn build_pipeline(cx: &Ctx<'_>, m: &ModelDoc, registry: &Registry) -> Result<Pip
         Some(entry) => {
             let doc = entry.get_ref();
             if doc.key.as_deref() == Some("term") || doc.variant.is_some() {
-                let at = doc.variant.as_ref().map_or_else(|| name_span(entry), |v| v.span());
+                let at = doc
+                    .variant
+                    .as_ref()
+                    .map(|v| v.span())
+                    .filter(|s| !s.is_empty())
+                    .unwrap_or_else(|| name_span(entry));
                 return Err(cx.err(
                     at,
                     LoadErrorKind::Syntax("a shadow model is named with `model = \"...\"` and has no variant".into()),

@@ -110,7 +110,7 @@ pub struct SceneDoc {
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialDoc>,
     #[serde(default)]
-    pub lights: Vec<LightDoc>,
+    pub lights: Vec<Spanned<LightDoc>>,
     #[serde(default)]
     pub objects: Vec<Spanned<ObjectDoc>>,
 }
@@ -201,8 +201,13 @@ impl<'de> Visitor<'de> for NamedVisitor {
         f.write_str("a name, or a table such as { term = \"specular\", variant = \"phong\" }")
     }
     fn visit_str<E: de::Error>(self, v: &str) -> Result<NamedDoc, E> {
-        // The string's span is the enclosing Spanned's; the builder fills it in.
-        Ok(NamedDoc { name: Spanned::new(0..0, v.to_owned()), variant: None, params: Vec::new(), key: None })
+        // `name` or `name:variant`, as on the command line. The string's span is the enclosing
+        // Spanned's; the builder fills it in.
+        let (name, variant) = match v.split_once(':') {
+            Some((n, var)) => (n.trim(), Some(Spanned::new(0..0, var.trim().to_owned()))),
+            None => (v, None),
+        };
+        Ok(NamedDoc { name: Spanned::new(0..0, name.to_owned()), variant, params: Vec::new(), key: None })
     }
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<NamedDoc, A::Error> {
         let (mut name, mut variant, mut key, mut params) = (None, None, None, Vec::new());

@@ -63,19 +63,69 @@ pub struct LoadError {
     pub kind: Box<LoadErrorKind>,
 }
 
+/// A place in a scene or model file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Place {
+    /// The file as the caller named it.
+    pub file: String,
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based column, in characters.
+    pub column: usize,
+}
+
+impl Place {
+    /// Where byte `at` of `src` is.
+    pub(crate) fn of(file: &str, src: &str, at: usize) -> Place {
+        let start = at.min(src.len());
+        let line_start = src[..start].rfind('\n').map_or(0, |i| i + 1);
+        Place {
+            file: file.to_owned(),
+            line: src[..start].matches('\n').count() + 1,
+            column: src[line_start..start].chars().count() + 1,
+        }
+    }
+}
+
+impl std::fmt::Display for Place {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}:{}", self.file, self.line, self.column)
+    }
+}
+
+/// Something a scene is allowed to do but its author probably did not mean (an unused
+/// material, a light inside an object...), with the place it is about when there is one.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning {
+    /// Where in the file.
+    pub place: Option<Place>,
+    /// What is wrong, and what to do.
+    pub message: String,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.place {
+            Some(p) => write!(f, "warning: {p}: {}", self.message),
+            None => write!(f, "warning: {}", self.message),
+        }
+    }
+}
+
 impl LoadError {
     /// An error at byte range `span` of `src` (the start of the file when `None`).
     pub(crate) fn at(file: &str, src: &str, span: Option<Range<usize>>, kind: LoadErrorKind) -> LoadError {
         let span = span.unwrap_or(0..0);
         let start = span.start.min(src.len());
+        let place = Place::of(file, src, start);
         let line_start = src[..start].rfind('\n').map_or(0, |i| i + 1);
         let line_end = src[start..].find('\n').map_or(src.len(), |i| start + i);
         let source_line = src[line_start..line_end].trim_end_matches('\r').to_owned();
         let end = span.end.clamp(start, line_end);
         LoadError {
-            file: file.to_owned(),
-            line: src[..start].matches('\n').count() + 1,
-            column: src[line_start..start].chars().count() + 1,
+            file: place.file,
+            line: place.line,
+            column: place.column,
             width: src[start..end].chars().count().max(1),
             source_line,
             kind: Box::new(kind),

@@ -3,11 +3,13 @@
 //! Every error names the file, line and column. No file system access: callers pass the text.
 
 mod build;
+mod check;
 mod doc;
 mod error;
 
-pub use build::{Loaded, Resolver, load_model, load_scene, load_scene_with};
-pub use error::{LoadError, LoadErrorKind};
+pub use build::{Loaded, Places, Resolver, load_model, load_scene, load_scene_with};
+pub use check::check;
+pub use error::{LoadError, LoadErrorKind, Place, Warning};
 
 #[cfg(test)]
 mod tests;

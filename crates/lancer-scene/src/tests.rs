@@ -311,6 +311,7 @@ fn meshes_load_through_the_resolver_and_bad_files_are_located_errors() {
             "tri.obj" => b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".to_vec(),
             "range.obj" => b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n".to_vec(),
             "flat.obj" => b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n".to_vec(),
+            "one-flat.obj" => b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n".to_vec(),
             "junk.obj" => b"v 0 0 zero\nf 1 2 3\n".to_vec(),
             _ => return Err("No such file or directory (os error 2)".into()),
         })
@@ -325,7 +326,7 @@ fn meshes_load_through_the_resolver_and_bad_files_are_located_errors() {
     for (path, message) in [
         ("missing.obj", "mesh `missing.obj`: No such file or directory"),
         ("range.obj", "mesh `range.obj`: not a readable OBJ file"),
-        ("flat.obj", "mesh `flat.obj`: triangle 0 is degenerate"),
+        ("flat.obj", "mesh `flat.obj`: every triangle (1) is degenerate"),
         ("junk.obj", "mesh `junk.obj`: not a readable OBJ file"),
     ] {
         let src = scene(path);
@@ -336,6 +337,21 @@ fn meshes_load_through_the_resolver_and_bad_files_are_located_errors() {
         assert_eq!((e.line, e.column), pos(&src, &format!("\"{path}\"")), "{path}");
         assert!(e.to_string().contains(message), "{path}: {e}");
     }
+    // A real file's degenerate triangle is skipped, with a located warning giving the count.
+    let src = scene("one-flat.obj");
+    let l = load(&src).unwrap_or_else(|e| panic!("{e}"));
+    match l.scene.world.query::<&Shape>().iter().next().unwrap() {
+        Shape::Mesh(m) => assert_eq!(m.triangle_count(), 1),
+        other => panic!("{other:?}"),
+    }
+    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    let (line, column) = pos(&src, "\"one-flat.obj\"");
+    assert!(
+        w.contains(&format!(
+            "warning: s.toml:{line}:{column}: mesh `one-flat.obj`: 1 degenerate triangle (corners on one line) skipped of 2"
+        )),
+        "{w:?}"
+    );
     let src = format!("{CAMERA}[[objects]]\nshape = \"mesh\"\n");
     assert!(err(&src).to_string().contains("a mesh needs `path"));
     let src = format!(
@@ -372,4 +388,28 @@ fn normals_indexed_apart_from_positions_load_as_a_smooth_mesh() {
     let Shape::Mesh(m) = &shapes[0] else { panic!("a mesh") };
     assert_eq!(m.triangle_count(), 2);
     assert!(m.is_smooth());
+}
+
+#[test]
+fn loading_warns_about_unused_materials_bright_colours_and_no_lights() {
+    let src = format!(
+        "{CAMERA}[materials.spare]\ncolor = [0.5, 0.5, 0.5]\n[materials.used]\ncolor = [1.5, 0.2, 0.2]\n\
+         [[objects]]\nshape = \"sphere\"\nmaterial = \"used\"\n"
+    );
+    let l = crate::load_scene(&src, "s.toml", &Registry::with_builtins()).unwrap_or_else(|e| panic!("{e}"));
+    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    let at = |needle: &str| {
+        let (line, column) = pos(&src, needle);
+        format!("s.toml:{line}:{column}")
+    };
+    assert!(w.iter().any(|w| w.contains("no [[lights]]")), "{w:?}");
+    assert!(
+        w.contains(&format!("warning: {}: material `spare` is defined but no object uses it", at("[materials.spare]"))),
+        "{w:?}"
+    );
+    assert!(
+        w.iter().any(|x| x.starts_with(&format!("warning: {}: a material colour above 1 (1.5)", at("[1.5")))),
+        "{w:?}"
+    );
+    assert_eq!(w.len(), 3, "{w:?}");
 }

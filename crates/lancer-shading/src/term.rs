@@ -168,6 +168,14 @@ pub trait Term: Send + Sync {
         true
     }
 
+    /// Whether the term can add anything on a surface of this material (not all of the material
+    /// parameters it reads are zero). `lancer check` warns about a term that acts on no material
+    /// of the scene. The default, `true`, is always safe.
+    fn acts_on(&self, material: &Material) -> bool {
+        let _ = material;
+        true
+    }
+
     /// The inputs of the term's formula at `lane` of `chunk`, for `lancer explain` (called after
     /// [`Term::run`], on one-lane chunks, only while a pixel is explained). The default says
     /// nothing; the built-in terms list what their formula reads (e.g. `−u·w_r` and the

@@ -190,6 +190,24 @@ impl Object {
         }
     }
 
+    /// Whether the world point `p` is inside the object's solid (never for a shape with no
+    /// inside: a disk, an open mesh). A plane's inside is the half-space below it.
+    pub fn contains(&self, p: Vec3) -> bool {
+        // Any direction will do; one along no axis keeps clear of edges and faces.
+        let d = Vec3::new(0.267_261_24, 0.534_522_5, 0.801_783_7);
+        match &self.shape {
+            Shape::Disk => false,
+            // The first surface met from inside is met from its back.
+            Shape::Mesh(m) => {
+                m.is_closed() && self.intersect(p, d, 0.0, f32::INFINITY).is_some_and(|c| !self.hit(0, p, d, &c).front)
+            }
+            shape => {
+                let (o, od) = self.to_object(p, d);
+                shape.spans(o, od).iter().any(|s| s.t0 < 0.0 && 0.0 < s.t1)
+            }
+        }
+    }
+
     /// World-space bounds; `None` for unbounded shapes.
     pub fn bounds(&self) -> Option<Aabb> {
         self.shape.bounds().map(|b| b.transformed(&self.world_from_object))
@@ -354,6 +372,55 @@ impl Geometry {
         found
     }
 
+    /// Whether object `b` reaches into the solid of object `a` (more than touching it): some
+    /// chord of `a`, among a fixed set of 256 spread through its bounds, meets `b`'s surface
+    /// away from its ends, or has its middle inside `b`. For a scene check, not for rendering:
+    /// a small overlap can be missed. `false` when `a` is unbounded or has no inside.
+    pub fn overlap(&self, a: u32, b: u32) -> bool {
+        let (oa, ob) = (&self.objects[a as usize], &self.objects[b as usize]);
+        let Some(box_a) = oa.bounds() else { return false };
+        if !oa.shape.is_closed() {
+            return false;
+        }
+        if let Some(box_b) = ob.bounds()
+            && (box_b.min.cmpgt(box_a.max).any() || box_a.min.cmpgt(box_b.max).any())
+        {
+            return false;
+        }
+        let (centre, size) = (box_a.centre(), box_a.max - box_a.min);
+        let reach = size.length().max(f32::MIN_POSITIVE);
+        const CHORDS: u32 = 256;
+        for k in 0..CHORDS {
+            // A direction on the Fibonacci sphere and a target spread through the box (R3).
+            let i = k as f32 + 0.5;
+            let z = 1.0 - 2.0 * i / CHORDS as f32;
+            let phi = i * 2.399_963;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let g = Vec3::new(0.819_172_5, 0.671_043_5, 0.549_700_5);
+            let spread = (g * i).fract() - Vec3::splat(0.5);
+            let target = centre + 0.9 * spread * size;
+            let origin = target - 2.0 * reach * dir;
+            let Some(c) = oa.intersect(origin, dir, 0.0, f32::INFINITY) else { continue };
+            let entry = oa.hit(a, origin, dir, &c);
+            if !entry.front {
+                continue;
+            }
+            let Some(exit) = self.exit(&entry, dir) else { continue };
+            let length = (exit.point - entry.point).dot(dir);
+            if length.is_nan() || length <= 0.0 {
+                continue;
+            }
+            let margin = 1e-3 * length;
+            if ob.intersect(entry.point, dir, margin, length - margin).is_some()
+                || ob.contains(entry.point + 0.5 * length * dir)
+            {
+                return true;
+            }
+        }
+        false
+    }
+
     /// The closest hit by testing every object, for checking the BVH.
     pub fn closest_hit_brute_force(&self, from: Origin, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let mut best = None;
@@ -474,5 +541,59 @@ mod tests {
         let hit = g.closest_hit(from, down, 0.0, f32::INFINITY).expect("the floor is right there");
         assert_eq!(hit.object, 0);
         assert!(hit.t < 1e-3);
+    }
+
+    #[test]
+    fn contains_tells_inside_from_outside_for_every_solid() {
+        let at = |x: f32| Affine3A::from_translation(Vec3::new(x, 0.0, 0.0));
+        let torus = Shape::Torus { minor: 0.25 };
+        for (shape, inside, outside) in [
+            (Shape::Sphere, Vec3::new(0.5, 0.2, 0.0), Vec3::new(0.8, 0.8, 0.0)),
+            (Shape::Cube, Vec3::new(0.9, -0.9, 0.9), Vec3::new(1.1, 0.0, 0.0)),
+            (Shape::Cylinder, Vec3::new(0.0, 0.9, 0.5), Vec3::new(0.8, 0.0, 0.8)),
+            (torus, Vec3::new(1.0, 0.1, 0.0), Vec3::ZERO),
+            (Shape::Plane, Vec3::new(3.0, -0.1, 7.0), Vec3::new(3.0, 0.1, 7.0)),
+        ] {
+            let o = Object::new(shape.clone(), at(10.0), 0).unwrap();
+            assert!(o.contains(inside + Vec3::X * 10.0), "{shape:?} contains {inside}");
+            assert!(!o.contains(outside + Vec3::X * 10.0), "{shape:?} does not contain {outside}");
+        }
+        let disk = Object::new(Shape::Disk, Affine3A::IDENTITY, 0).unwrap();
+        assert!(!disk.contains(Vec3::ZERO), "a disk has no inside");
+        let octahedron = crate::mesh::tests::octahedron();
+        let mesh = Object::new(Shape::Mesh(std::sync::Arc::new(octahedron)), at(10.0), 0).unwrap();
+        assert!(mesh.contains(Vec3::new(10.2, 0.1, 0.1)));
+        assert!(!mesh.contains(Vec3::new(10.6, 0.6, 0.0)));
+    }
+
+    #[test]
+    fn overlap_finds_objects_reaching_into_a_solid_but_not_touching_ones() {
+        let sphere = |x: f32, y: f32, r: f32| {
+            Object::new(
+                Shape::Sphere,
+                Affine3A::from_scale_rotation_translation(Vec3::splat(r), Quat::IDENTITY, Vec3::new(x, y, 0.0)),
+                0,
+            )
+            .unwrap()
+        };
+        let floor = Object::new(Shape::Plane, Affine3A::IDENTITY, 0).unwrap();
+        // A ball resting on the floor, a ball sunk into it, two balls that overlap, a small
+        // ball wholly inside a big one, a cube resting on the floor.
+        let g = Geometry::new(vec![
+            floor,
+            sphere(0.0, 1.0, 1.0),
+            sphere(5.0, 0.5, 1.0),
+            sphere(10.0, 3.0, 1.0),
+            sphere(11.5, 3.0, 1.0),
+            sphere(20.0, 5.0, 2.0),
+            sphere(20.3, 5.0, 0.3),
+            Object::new(Shape::Cube, Affine3A::from_translation(Vec3::new(-5.0, 1.0, 0.0)), 0).unwrap(),
+        ]);
+        assert!(!g.overlap(1, 0), "resting on the floor is touching");
+        assert!(!g.overlap(7, 0), "a cube resting on the floor touches it");
+        assert!(g.overlap(2, 0), "sunk halfway into the floor");
+        assert!(g.overlap(3, 4) && g.overlap(4, 3));
+        assert!(g.overlap(5, 6), "a ball inside another");
+        assert!(!g.overlap(1, 3) && !g.overlap(0, 1), "apart; a plane is not a bounded solid");
     }
 }

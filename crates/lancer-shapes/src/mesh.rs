@@ -108,6 +108,14 @@ impl Sheared {
     }
 }
 
+/// Whether the triangle `a b c` has (nearly) no area: its corners on one line, to single
+/// precision. [`Mesh::new`] refuses such triangles; a loader may skip them.
+pub fn degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
+    let area2 = (b - a).cross(c - a).length();
+    let scale = (b - a).length().max((c - a).length()).max((c - b).length());
+    area2.is_nan() || area2 <= 1e-7 * scale * scale
+}
+
 impl Mesh {
     /// A mesh from vertex positions, optional per-vertex normals and texture coordinates (empty
     /// for none), and triangles as vertex indices.
@@ -134,9 +142,7 @@ impl Mesh {
                 return Err(MeshError::IndexOutOfRange { triangle: k, index, vertices: n });
             }
             let [a, b, c] = tri.map(|i| positions[i as usize]);
-            let area2 = (b - a).cross(c - a).length();
-            let scale = (b - a).length().max((c - a).length()).max((c - b).length());
-            if area2.is_nan() || area2 <= 1e-7 * scale * scale {
+            if degenerate(a, b, c) {
                 return Err(MeshError::Degenerate(k));
             }
         }
@@ -257,7 +263,7 @@ impl Mesh {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// The unit octahedron's 8 triangles wound outward (vertices ±x, ±y, ±z in that order).
@@ -271,7 +277,7 @@ mod tests {
     }
 
     /// A unit octahedron: 6 vertices, 8 triangles wound outward.
-    fn octahedron() -> Mesh {
+    pub(crate) fn octahedron() -> Mesh {
         octahedron_of(OUTWARD.to_vec())
     }
 

@@ -23,6 +23,10 @@ pub const SPEC: TermSpec = TermSpec {
 struct Ambient;
 
 impl Term for Ambient {
+    fn acts_on(&self, material: &lancer_core::Material) -> bool {
+        material.ambi > 0.0
+    }
+
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         vec![Note::number("ambi", m.ambi), Note::vector("Col_Ω", ctx.color(chunk.hits, lane))]

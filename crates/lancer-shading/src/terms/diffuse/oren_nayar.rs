@@ -59,6 +59,10 @@ impl OrenNayar {
 }
 
 impl Term for OrenNayar {
+    fn acts_on(&self, material: &lancer_core::Material) -> bool {
+        material.diff > 0.0
+    }
+
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let (_, n) = facing(&chunk, lane);

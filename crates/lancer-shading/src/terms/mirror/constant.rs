@@ -27,6 +27,10 @@ pub const SPEC: TermSpec = TermSpec {
 struct Mirror;
 
 impl Term for Mirror {
+    fn acts_on(&self, material: &lancer_core::Material) -> bool {
+        material.spec > 0.0
+    }
+
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let hit = ctx.hit(chunk.hits, lane);

@@ -38,6 +38,10 @@ struct Schlick {
 }
 
 impl Term for Schlick {
+    fn acts_on(&self, material: &lancer_core::Material) -> bool {
+        material.spec > 0.0
+    }
+
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let (_, n) = facing(&chunk, lane);

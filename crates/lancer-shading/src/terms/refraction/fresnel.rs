@@ -47,6 +47,10 @@ pub fn split(cos: f32, n: f32, front: bool) -> (f32, f32) {
 }
 
 impl Term for Fresnel {
+    fn acts_on(&self, material: &lancer_core::Material) -> bool {
+        material.alpha > 0.0
+    }
+
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let mut notes = vec![Note::number("alpha", m.alpha), Note::number("n", m.n)];

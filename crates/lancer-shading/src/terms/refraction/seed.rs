@@ -33,6 +33,10 @@ pub const SPEC: TermSpec = TermSpec {
 struct Refraction;
 
 impl Term for Refraction {
+    fn acts_on(&self, material: &lancer_core::Material) -> bool {
+        material.alpha > 0.0
+    }
+
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let mut notes = vec![Note::number("alpha (weight of R_t)", m.alpha), Note::number("n", m.n)];

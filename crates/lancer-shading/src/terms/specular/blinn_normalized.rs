@@ -32,6 +32,10 @@ struct BlinnNormalized {
 }
 
 impl Term for BlinnNormalized {
+    fn acts_on(&self, material: &lancer_core::Material) -> bool {
+        material.spec > 0.0 && (self.exponent.is_some() || material.shine < 1.0)
+    }
+
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let (_, n) = facing(&chunk, lane);

@@ -37,6 +37,10 @@ pub fn phong_factor(shine: f32, c: f32) -> f32 {
 }
 
 impl Term for Phong {
+    fn acts_on(&self, material: &lancer_core::Material) -> bool {
+        material.spec > 0.0 && material.shine > 0.0 && material.shine < 1.0
+    }
+
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let (_, n) = facing(&chunk, lane);

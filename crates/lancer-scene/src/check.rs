@@ -1,0 +1,96 @@
+//! Warnings about a loaded and prepared scene that only its geometry and model can tell: the
+//! camera or a light inside an object, transparent objects that reach into others, terms that
+//! act on no material, a render far costlier than usual.
+
+use lancer_core::Scene;
+use lancer_shading::{Pipeline, Prepared};
+
+use crate::{Places, Warning};
+
+/// Camera rays, times lights plus one, above which a render is "far costlier than usual" (the
+/// example scenes trace a few million rays; this is over a minute on a 2-core machine).
+const COSTLY_RAYS: f64 = 2e9;
+
+/// What `lancer check` (and `lancer render`) warns about beyond what loading found. `places`
+/// locates the objects, lights and camera in the file (objects in the prepared order).
+pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &Places) -> Vec<Warning> {
+    let mut out = Vec::new();
+    let geometry = &prepared.geometry;
+    let material = |i: usize| &prepared.materials[geometry.objects[i].material as usize];
+    let object = |i: usize| {
+        let at = places.objects.get(i).map(|p| format!(", {p}")).unwrap_or_default();
+        format!("object {} ({}{at})", i + 1, geometry.objects[i].shape.name())
+    };
+    let camera = scene.camera.origin;
+    for i in (0..geometry.objects.len()).filter(|&i| geometry.objects[i].contains(camera)) {
+        let see = if material(i).alpha > 0.0 {
+            "the image is seen through its surface from inside"
+        } else {
+            "its surface hides the rest of the scene"
+        };
+        out.push(Warning {
+            place: places.camera.clone(),
+            message: format!("the camera is inside {}: {see}", object(i)),
+        });
+    }
+    for (k, light) in prepared.lights.iter().enumerate() {
+        for i in (0..geometry.objects.len()).filter(|&i| geometry.objects[i].contains(light.at)) {
+            let through = if material(i).alpha > 0.0 {
+                "its light reaches outside only through transparent shadows"
+            } else {
+                "it lights nothing outside that object"
+            };
+            out.push(Warning {
+                place: places.lights.get(k).cloned(),
+                message: format!("light {} is inside {}: {through}", k + 1, object(i)),
+            });
+        }
+    }
+    for a in (0..geometry.objects.len()).filter(|&a| material(a).alpha > 0.0) {
+        for b in (0..geometry.objects.len()).filter(|&b| b != a) {
+            if geometry.overlap(a as u32, b as u32) {
+                out.push(Warning {
+                    place: places.objects.get(a).cloned(),
+                    message: format!(
+                        "transparent {} reaches into {}: the handout's refraction path crosses a transparent object \
+                         without meeting anything inside it, so the part of the other object inside it will not show",
+                        object(a),
+                        object(b)
+                    ),
+                });
+            }
+        }
+    }
+    for term in &pipeline.terms {
+        let used = (0..geometry.objects.len()).any(|i| term.term.acts_on(material(i)));
+        if !used && !geometry.objects.is_empty() {
+            out.push(Warning {
+                place: None,
+                message: format!(
+                    "term `{}` adds nothing to this scene: the parameters it reads are zero on every material \
+                     (`lancer terms` says which it reads)",
+                    term.name
+                ),
+            });
+        }
+    }
+    let image = &scene.image;
+    let camera_rays = image.width as f64 * image.height as f64 * image.samples.max(1) as f64;
+    let estimate = camera_rays * (1.0 + prepared.lights.len() as f64);
+    if estimate > COSTLY_RAYS {
+        out.push(Warning {
+            place: None,
+            message: format!(
+                "this render traces at least {:.0} M rays ({}x{} pixels x {} samples, each with {} shadow ray(s)): \
+                 about {:.0} thread-minutes at 10 M rays per thread-second; lower --samples or the size to try it first",
+                estimate / 1e6,
+                image.width,
+                image.height,
+                image.samples.max(1),
+                prepared.lights.len(),
+                estimate / 1e7 / 60.0
+            ),
+        });
+    }
+    out
+}
