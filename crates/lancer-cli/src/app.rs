@@ -39,6 +39,9 @@ struct Cli {
 enum Command {
     /// Render a scene (the embedded showcase when no SCENE is given).
     Render(RenderArgs),
+    /// Render a scene, then again each time the scene, the model file or a mesh or texture it
+    /// uses is saved (the same flags as `render`); Ctrl-C stops.
+    Watch(RenderArgs),
     /// Load and prepare a scene without rendering it: a summary, and warnings about what it
     /// probably does not mean.
     Check(CheckArgs),
@@ -65,12 +68,12 @@ const MAX_FILE_MB: u64 = 1024;
 
 /// What every command that renders reads: the scene and how to change its model and image.
 #[derive(Args, Clone, Default)]
-struct SceneArgs {
+pub(crate) struct SceneArgs {
     /// Scene file (TOML); the embedded showcase when absent.
-    scene: Option<PathBuf>,
+    pub(crate) scene: Option<PathBuf>,
     /// Replace the scene's [model] with this model file.
     #[arg(long, value_name = "FILE")]
-    model: Option<PathBuf>,
+    pub(crate) model: Option<PathBuf>,
     /// Replace the model's terms (keeping its shadows and depth): names in order, each with an
     /// optional variant, e.g. `ambient,diffuse,specular:blinn`.
     #[arg(long, value_name = "TERM[:VARIANT],...", value_delimiter = ',')]
@@ -95,13 +98,13 @@ struct SceneArgs {
     max_file_size: u64,
 }
 
-#[derive(Args, Default)]
-struct RenderArgs {
+#[derive(Args, Clone, Default)]
+pub(crate) struct RenderArgs {
     #[command(flatten)]
-    input: SceneArgs,
+    pub(crate) input: SceneArgs,
     /// Beauty image: .png (sRGB 8-bit) or .exr (linear float).
     #[arg(short, long, default_value = "render.png")]
-    output: PathBuf,
+    pub(crate) output: PathBuf,
     /// Also write DIR/<term>.exr and DIR/<term>.png for every term, and DIR/beauty.{exr,png}.
     #[arg(long, value_name = "DIR")]
     aov: Option<PathBuf>,
@@ -172,6 +175,7 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
         None => render(registry, cli.render),
         Some(Command::Render(args)) => render(registry, args),
         Some(Command::Check(args)) => check(registry, args),
+        Some(Command::Watch(args)) => crate::watch::watch(registry, args),
         Some(Command::Explain(args)) => explain(registry, args),
         Some(Command::Terms) => {
             print!("{}", crate::listing::terms(registry));
@@ -218,13 +222,24 @@ struct Loaded {
 /// Reads and builds the scene and its model, applies the command line's changes, and checks the
 /// image's size.
 fn load(registry: &Registry, args: &SceneArgs) -> Result<Loaded> {
+    load_recording(registry, args, &std::cell::RefCell::new(Vec::new()))
+}
+
+/// [`load`], adding to `inputs` every file it reads (scene, model, meshes, textures), even when
+/// it fails: what `watch` watches.
+fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::RefCell<Vec<PathBuf>>) -> Result<Loaded> {
+    inputs.borrow_mut().extend(args.scene.iter().chain(&args.model).cloned());
     let (src, name) = match &args.scene {
         Some(p) => (read(p, "scene", args.max_file_size)?, p.display().to_string()),
         None => (DEFAULT_SCENE.to_owned(), DEFAULT_SCENE_NAME.to_owned()),
     };
     // Files a scene refers to (textures) are relative to the scene file's folder.
     let base = args.scene.as_ref().and_then(|p| p.parent()).map(Path::to_path_buf).unwrap_or_default();
-    let resolve = |rel: &str| read_bytes(&base.join(rel), "file", args.max_file_size);
+    let resolve = |rel: &str| {
+        let path = base.join(rel);
+        inputs.borrow_mut().push(path.clone());
+        read_bytes(&path, "file", args.max_file_size)
+    };
     let load_start = Instant::now();
     let loaded = lancer_scene::load_scene_with(&src, &name, registry, &resolve).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
@@ -316,9 +331,18 @@ fn check(registry: &Registry, args: CheckArgs) -> Result<()> {
 }
 
 fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
+    render_recording(registry, &args, &std::cell::RefCell::new(Vec::new()))
+}
+
+/// [`render`], adding to `inputs` every file it reads.
+pub(crate) fn render_recording(
+    registry: &Registry,
+    args: &RenderArgs,
+    inputs: &std::cell::RefCell<Vec<PathBuf>>,
+) -> Result<()> {
     // Check every output path before the (long) render, so a typo costs nothing.
     let format = Format::of(&args.output)?;
-    let loaded = load(registry, &args.input)?;
+    let loaded = load_recording(registry, &args.input, inputs)?;
     let (prepared, mut warnings) = loaded.prepare()?;
     if args.aov.is_none() && args.aov_format != AovFormat::default() {
         warnings.push(lancer_scene::Warning {

@@ -7,5 +7,6 @@ mod explain;
 pub mod listing;
 pub mod output;
 mod stats;
+mod watch;
 
 pub use app::{DEFAULT_SCENE, main_with};

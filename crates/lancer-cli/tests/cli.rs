@@ -511,3 +511,54 @@ fn a_scene_alone_renders_and_aov_format_without_aov_warns() {
     assert!(stderr(&o).contains("warning: --aov-format has no effect without --aov DIR"), "{}", stderr(&o));
     assert_eq!(files(dir.path()), ["g.png"]);
 }
+
+#[test]
+fn watch_renders_again_on_save_keeps_the_last_image_on_a_broken_save_and_stops_on_ctrl_c() {
+    let dir = tempfile::tempdir().unwrap();
+    let glass = std::fs::read_to_string(scene("glass.toml")).unwrap();
+    std::fs::write(dir.path().join("s.toml"), &glass).unwrap();
+    let log = std::fs::File::create(dir.path().join("log.txt")).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lancer"))
+        .args(["watch", "s.toml", "--width", "48", "-o", "out.png", "-q"])
+        .current_dir(dir.path())
+        .stderr(log)
+        .spawn()
+        .expect("lancer runs");
+    let log = || std::fs::read_to_string(dir.path().join("log.txt")).unwrap();
+    let wait_for = |what: &str, done: &dyn Fn() -> bool| {
+        for _ in 0..200 {
+            if done() {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        panic!("waited 10 s for {what}; log:\n{}", log());
+    };
+    let image = || std::fs::read(dir.path().join("out.png")).ok();
+    let watching = |n: usize| move || log().matches("watching").count() >= n;
+    wait_for("the first render", &watching(1));
+    let first = image().expect("the first render wrote out.png");
+    // An editor's save by rename: a new file moved over the old one.
+    let save = |text: &str| {
+        std::fs::write(dir.path().join("s.toml.tmp"), text).unwrap();
+        std::fs::rename(dir.path().join("s.toml.tmp"), dir.path().join("s.toml")).unwrap();
+    };
+    save(&glass.replace("background = [", "background = [0.9, 0.1, 0.1] # was ["));
+    wait_for("the second render", &watching(2));
+    let second = image().unwrap();
+    assert_ne!(first, second, "the new background shows");
+    save("[camera]\nfrom = [0, 0]\n");
+    wait_for("the broken save's error", &|| log().contains("s.toml:2:"));
+    wait_for("watching again", &watching(3));
+    assert_eq!(image().unwrap(), second, "a broken save keeps the last image");
+    save(&glass);
+    wait_for("the render after the fix", &watching(4));
+    assert_eq!(image().unwrap(), first);
+    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().expect("kill runs");
+    assert!(kill.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    let mut left = files(dir.path());
+    left.retain(|f| f != "log.txt");
+    assert_eq!(left, ["out.png", "s.toml"], "no temporary file left");
+}
