@@ -2,6 +2,7 @@
 //! check in a real browser) and plain per-scene renders.
 
 mod bench;
+mod fuzz;
 mod gallery;
 
 use std::path::{Path, PathBuf};
@@ -15,6 +16,10 @@ tasks:
   bench [--runs N]
             Lancer against POV-Ray 3.7 (when installed) on scenes/bench/anchor, 1 and 2 threads;
             and render cost against the number of objects
+  fuzz [--runs N] [--seed S]
+            mutate the scenes in scenes/ (lines, numbers, junk tokens and tables) and load, prepare
+            and render each in-process; any panic, hang, unlocated error or NaN is written to
+            target/fuzz/ (default 2000 runs, seed 1)
   gallery [--width W] [--samples N] [FILTER]
             render every scene in scenes/ (or those whose path contains FILTER) with its per-term
             images, and the comparison sheets, into target/gallery/index.html
@@ -39,6 +44,7 @@ pub fn root() -> PathBuf {
 fn run(args: Vec<String>) -> Result<()> {
     match args.first().map(String::as_str) {
         Some("bench") => bench::run(&args[1..]),
+        Some("fuzz") => fuzz::run(&args[1..]),
         Some("gallery") => gallery::build(&args[1..]),
         Some("gallery-check") => gallery::check(&args[1..]),
         Some("renders") => renders(&args[1..]),

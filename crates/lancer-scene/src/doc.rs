@@ -62,10 +62,16 @@ fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
     ranged(d, 0.0, f32::MAX)
 }
 
+/// Largest colour channel: well above any meaningful colour (the handout's are in [0, 1]), low
+/// enough that products of colours along a ray stay finite.
+pub const MAX_CHANNEL: f32 = 1000.0;
+
 fn colour<'de, D: Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
     let [r, g, b] = <[Num; 3]>::deserialize(d)?;
-    if [r, g, b].iter().any(|c| c.0 < 0.0) {
-        return Err(de::Error::custom("expected a colour [r, g, b] with no negative channel"));
+    if [r, g, b].iter().any(|c| !(0.0..=MAX_CHANNEL).contains(&c.0)) {
+        return Err(de::Error::custom(format!(
+            "expected a colour [r, g, b] with channels in [0, {MAX_CHANNEL}] (the handout's are in [0, 1])"
+        )));
     }
     Ok([r.0, g.0, b.0])
 }

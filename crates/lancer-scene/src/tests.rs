@@ -413,3 +413,16 @@ fn loading_warns_about_unused_materials_bright_colours_and_no_lights() {
     );
     assert_eq!(w.len(), 3, "{w:?}");
 }
+
+#[test]
+fn regression_colours_are_bounded_so_products_along_a_ray_stay_finite() {
+    // Found by the fuzzer: a colour of 1e30 made absorption and tinted shadows infinite.
+    for bad in ["[1e30, 0.5, 0.5]", "[0.5, -0.1, 0.5]", "[0.5, 0.5, 1000.5]"] {
+        let src = format!("{CAMERA}[[objects]]\nshape = \"sphere\"\nmaterial = {{ color = {bad} }}\n");
+        let e = err(&src);
+        assert_eq!((e.line, e.column), pos(&src, bad), "{bad}");
+        assert!(e.to_string().contains("channels in [0, 1000]"), "{e}");
+    }
+    let src = format!("{CAMERA}[[objects]]\nshape = \"sphere\"\nmaterial = {{ color = [1000, 0, 0] }}\n");
+    assert!(crate::load_scene(&src, "s.toml", &Registry::with_builtins()).is_ok());
+}

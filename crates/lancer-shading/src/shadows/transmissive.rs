@@ -68,7 +68,8 @@ pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32
             return Vec3::ZERO;
         }
         let hit = ctx.geometry.objects[object as usize].hit(object, from.point, dir, &crossing);
-        light *= if tint { m.alpha * ctx.color_at(&hit) } else { Vec3::splat(m.alpha) };
+        // A filter passes at most all the light: a colour above 1 does not amplify it.
+        light *= if tint { m.alpha * ctx.color_at(&hit).min(Vec3::ONE) } else { Vec3::splat(m.alpha) };
         match ctx.geometry.past(&hit, dir) {
             Some(past) => surface = past,
             // It never ends (a plane's half-space): the light is inside it.
@@ -92,13 +93,14 @@ mod tests {
 
     /// The light from `light_at` reaching the point `at` (on a small opaque disk facing +z, added
     /// as the last object), through `objects` with materials 0 = glass (alpha 0.5, orange),
-    /// 1 = opaque, 2 = glass textured with `texture`.
+    /// 1 = opaque, 2 = glass textured with `texture`, 3 = glass of colour 1000 (alpha 0.5).
     fn reaching(model: &str, tint: bool, objects: Vec<Object>, at: Vec3, light_at: Vec3, textures: &[Texture]) -> Vec3 {
         let glass = Material { color: Vec3::new(1.0, 0.5, 0.25), alpha: 0.5, ..Material::default() };
         let opaque = Material::default();
         let textured =
             Material { alpha: 0.5, pattern: Pattern::Image { texture: 0, scale: 1.0 }, ..Material::default() };
-        let materials = [glass, opaque, textured];
+        let bright = Material { color: Vec3::splat(1000.0), alpha: 0.5, ..Material::default() };
+        let materials = [glass, opaque, textured, bright];
         let mut objects = objects;
         let facing_z = Affine3A::from_translation(at) * Affine3A::from_rotation_x(-std::f32::consts::FRAC_PI_2);
         objects.push(Object::new(Shape::Disk, facing_z * Affine3A::from_scale(Vec3::splat(1e-3)), 1).unwrap());
@@ -165,6 +167,13 @@ mod tests {
         };
         assert_eq!(through(-0.5), Vec3::new(0.5, 0.0, 0.0));
         assert_eq!(through(0.5), Vec3::new(0.0, 0.0, 0.5));
+    }
+
+    #[test]
+    fn regression_a_colour_above_one_does_not_amplify_tinted_shadows() {
+        // Found by the fuzzer: colours multiplied along a shadow ray overflowed to infinity.
+        let bright = vec![sphere_at(3.0, 3), sphere_at(6.0, 3)];
+        assert_eq!(transmittance("transmissive", true, bright, 10.0), Vec3::splat(0.25));
     }
 
     #[test]

@@ -93,7 +93,12 @@ impl Term for Fresnel {
             // Leaving from inside, the entry split already was the exit's.
             let t_out = if hit.front { split(t.exit_cos, m.n, false).1 } else { 1.0 };
             let absorption =
-                if self.absorb > 0.0 { ctx.color(chunk.hits, lane).powf(t.length / self.absorb) } else { Vec3::ONE };
+                // The colour is what a unit of glass lets through: at most all of it.
+                if self.absorb > 0.0 {
+                    ctx.color(chunk.hits, lane).min(Vec3::ONE).powf(t.length / self.absorb)
+                } else {
+                    Vec3::ONE
+                };
             out.spawn(lane, t.from, t.dir, m.alpha * t_in * t_out * absorption);
         }
     }
