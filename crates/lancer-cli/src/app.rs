@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use crate::output::Format;
 use anyhow::{Context, Result, bail};
@@ -71,15 +71,19 @@ const MAX_FILE_MB: u64 = 1024;
 pub(crate) struct SceneArgs {
     /// Scene file (TOML); the embedded showcase when absent.
     pub(crate) scene: Option<PathBuf>,
-    /// Replace the scene's [model] with this model file.
+    /// Apply this model file over the scene's [model]: what it sets (terms, shadows, max_depth)
+    /// replaces the scene's, the rest stays.
     #[arg(long, value_name = "FILE")]
     pub(crate) model: Option<PathBuf>,
     /// Replace the model's terms (keeping its shadows and depth): names in order, each with an
-    /// optional variant, e.g. `ambient,diffuse,specular:blinn`.
-    #[arg(long, value_name = "TERM[:VARIANT],...", value_delimiter = ',')]
+    /// optional variant and parameters, e.g. `ambient,diffuse,specular:blinn:exponent=64`. A
+    /// term the scene already has keeps its parameters unless given again.
+    #[arg(long, value_name = "TERM[:VARIANT][:KEY=VALUE]...,...", value_delimiter = ',')]
     terms: Option<Vec<String>>,
-    /// Replace the model's shadow model (default parameters), e.g. `none`, `hard`, `soft`.
-    #[arg(long, value_name = "MODEL")]
+    /// Replace the model's shadow model, with parameters as KEY=VALUE, e.g. `none`, `hard`,
+    /// `soft:samples=64`, `transmissive:tint=true`. The scene's model keeps its parameters unless
+    /// given again.
+    #[arg(long, value_name = "MODEL[:KEY=VALUE]...")]
     shadows: Option<String>,
     /// Replace the model's recursion limit for mirror and refraction rays.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(0..=64))]
@@ -206,6 +210,56 @@ fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
     String::from_utf8(bytes).with_context(|| format!("reading {what} {}: not UTF-8 text", path.display()))
 }
 
+/// A term or shadow model chosen on the command line: `NAME[:VARIANT][:KEY=VALUE]...`, the
+/// same for `--terms` and `--shadows` (`specular:blinn:exponent=64`, `soft:samples=64`).
+struct Choice {
+    name: String,
+    variant: Option<String>,
+    params: Vec<(String, lancer_shading::ParamValue)>,
+}
+
+impl Choice {
+    fn parse(entry: &str) -> Result<Choice> {
+        use lancer_shading::ParamValue;
+        let mut parts = entry.split(':').map(str::trim);
+        let name = parts.next().unwrap_or_default().to_owned();
+        if name.is_empty() {
+            bail!("expected NAME[:VARIANT][:KEY=VALUE]...");
+        }
+        let (mut variant, mut params) = (None, Vec::new());
+        for (i, part) in parts.enumerate() {
+            match part.split_once('=') {
+                Some((k, v)) => {
+                    let v = v.trim();
+                    let value = match v {
+                        "true" => ParamValue::Bool(true),
+                        "false" => ParamValue::Bool(false),
+                        _ => match v.parse::<f64>() {
+                            Ok(x) if x.is_finite() => ParamValue::Number(x),
+                            _ => ParamValue::Text(v.trim_matches('"').to_owned()),
+                        },
+                    };
+                    params.push((k.trim().to_owned(), value));
+                }
+                None if i == 0 && params.is_empty() && part.parse::<f64>().is_err() => variant = Some(part.to_owned()),
+                None => bail!(
+                    "`{part}`: after the name come an optional variant, then parameters as KEY=VALUE \
+                     (e.g. soft:samples=64, specular:blinn:exponent=64); `lancer terms` lists them"
+                ),
+            }
+        }
+        Ok(Choice { name, variant, params })
+    }
+
+    /// These parameters over `base`'s (a scene's, for the same choice).
+    fn over(&self, base: &[(String, lancer_shading::ParamValue)]) -> Params {
+        let mut all: Vec<(String, lancer_shading::ParamValue)> =
+            base.iter().filter(|(k, _)| !self.params.iter().any(|(p, _)| p == k)).cloned().collect();
+        all.extend(self.params.iter().cloned());
+        Params::new(all)
+    }
+}
+
 /// A scene loaded with its model, the command line's changes applied.
 struct Loaded {
     scene: lancer_core::Scene,
@@ -245,25 +299,45 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
     let load_time = load_start.elapsed();
     let (mut scene, warnings, places) = (loaded.scene, loaded.warnings, loaded.places);
     let mut pipeline = match &args.model {
-        Some(p) => lancer_scene::load_model(&read(p, "model", args.max_file_size)?, &p.display().to_string(), registry)
-            .map_err(anyhow::Error::msg)?,
+        Some(p) => lancer_scene::load_model_over(
+            &read(p, "model", args.max_file_size)?,
+            &p.display().to_string(),
+            registry,
+            loaded.pipeline,
+        )
+        .map_err(anyhow::Error::msg)?,
         None => loaded.pipeline,
     };
     if let Some(list) = &args.terms {
         let mut terms = Vec::with_capacity(list.len());
         for entry in list {
-            let (name, variant) = match entry.split_once(':') {
-                Some((n, v)) => (n.trim(), Some(v.trim())),
-                None => (entry.trim(), None),
-            };
-            let term =
-                registry.build_term(name, variant, Params::default()).with_context(|| format!("in --terms {entry}"))?;
+            let choice = Choice::parse(entry).with_context(|| format!("in --terms {entry}"))?;
+            // The scene's parameters for the same term and variant stay, unless given again.
+            let kept = pipeline
+                .terms
+                .iter()
+                .find(|t| t.name == choice.name && choice.variant.as_ref().is_none_or(|v| *v == t.variant));
+            let variant = choice.variant.clone().or_else(|| kept.map(|t| t.variant.clone()));
+            let params = choice.over(kept.map(|t| t.params.as_slice()).unwrap_or_default());
+            let term = registry
+                .build_term(&choice.name, variant.as_deref(), params)
+                .with_context(|| format!("in --terms {entry}"))?;
             terms.push(term);
         }
         pipeline = Pipeline::new(pipeline.max_depth, pipeline.shadows, terms).context("in --terms")?;
     }
-    if let Some(name) = &args.shadows {
-        pipeline.shadows = registry.build_shadow(name, Params::default()).context("in --shadows")?;
+    if let Some(entry) = &args.shadows {
+        let choice = Choice::parse(entry).with_context(|| format!("in --shadows {entry}"))?;
+        if let Some(v) = &choice.variant {
+            bail!(
+                "in --shadows {entry}: a shadow model has no variant `{v}`; give parameters as KEY=VALUE, e.g. soft:samples=64"
+            );
+        }
+        // The scene's parameters for the same model stay, unless given again.
+        let kept = (pipeline.shadows.name == choice.name).then_some(pipeline.shadows.params.as_slice());
+        pipeline.shadows = registry
+            .build_shadow(&choice.name, choice.over(kept.unwrap_or_default()))
+            .with_context(|| format!("in --shadows {entry}"))?;
     }
     if let Some(depth) = args.max_depth {
         pipeline.max_depth = depth;
@@ -364,13 +438,21 @@ pub(crate) fn render_recording(
         .context("starting worker threads")?;
     let bar = if args.quiet { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(0) };
     bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} rendering [{bar:40}] {pos}/{len} tiles, {eta} left")
+        indicatif::ProgressStyle::with_template("{spinner} rendering [{bar:40}] {pos}/{len} tiles{msg}")
             .expect("valid template")
             .progress_chars("=> "),
     );
+    // The estimate from the average time per tile since the start (tiles are done in an order
+    // spread over the image, so the average holds), not from the last few.
+    let started = Instant::now();
     let progress = |done: usize, total: usize| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
+        let elapsed = started.elapsed().as_secs_f64();
+        if done >= 8 && elapsed > 0.5 {
+            let left = elapsed * (total - done) as f64 / done as f64;
+            bar.set_message(format!(", about {} left", indicatif::HumanDuration(Duration::from_secs_f64(left))));
+        }
     };
     let timing = args.stats || args.stats_json.is_some();
     let start = Instant::now();

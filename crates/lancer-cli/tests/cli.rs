@@ -180,7 +180,7 @@ fn a_bad_model_file_names_the_unknown_variant_or_parameter_and_writes_nothing() 
         (
             "terms = [{ term = \"diffuse\", weight = -1 }]\n",
             "-1",
-            "`diffuse`: parameter `weight`: expected a number in [0,",
+            "`diffuse`: parameter `weight`: expected a number of at least 0, found -1",
         ),
     ];
     for (model, at, message) in cases {
@@ -561,4 +561,61 @@ fn watch_renders_again_on_save_keeps_the_last_image_on_a_broken_save_and_stops_o
     let mut left = files(dir.path());
     left.retain(|f| f != "log.txt");
     assert_eq!(left, ["out.png", "s.toml"], "no temporary file left");
+}
+
+#[test]
+fn regression_a_model_file_replaces_only_what_it_sets() {
+    // models/blinn.toml swaps the highlight: the showcase keeps its transmissive shadows and
+    // depth (before, the file's own shadows and depth replaced them: 13,592 diffuse pixels moved).
+    let dir = tempfile::tempdir().unwrap();
+    let models: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "models", "blinn.toml"].iter().collect();
+    for (out, extra) in [("plain", None), ("blinn", Some(models.to_str().unwrap()))] {
+        let mut args = vec!["render", "--width", "96", "--aov", out, "--aov-format", "exr", "-q"];
+        if let Some(m) = extra {
+            args.extend(["--model", m]);
+        }
+        let o = lancer(dir.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let read = |p: &str| std::fs::read(dir.path().join(p)).unwrap();
+    for same in ["ambient.exr", "diffuse.exr", "background.exr"] {
+        assert!(read(&format!("plain/{same}")) == read(&format!("blinn/{same}")), "{same} changed");
+    }
+    assert!(read("plain/specular.exr") != read("blinn/specular.exr"));
+    let manifest: serde_json::Value = serde_json::from_slice(&read("blinn/manifest.json")).unwrap();
+    assert_eq!(manifest["model"]["shadows"]["name"], "transmissive");
+}
+
+#[test]
+fn terms_and_shadows_flags_share_one_syntax_and_keep_the_scenes_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let stats = |args: &[&str]| -> serde_json::Value {
+        let mut all = vec!["render", "--width", "32", "-o", "x.png", "-q", "--stats-json", "s.json"];
+        all.extend_from_slice(args);
+        let o = lancer(dir.path(), &all);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice(&std::fs::read(dir.path().join("s.json")).unwrap()).unwrap()
+    };
+    let soft = scene("soft-shadows.toml");
+    // The scene's soft shadows take 64 samples; naming the same model keeps them.
+    let doc = stats(&[&soft, "--shadows", "soft"]);
+    assert_eq!(doc["model"]["shadows"]["params"]["samples"], 64.0);
+    let doc = stats(&[&soft, "--shadows", "soft:samples=4:tint=true"]);
+    assert_eq!(doc["model"]["shadows"]["params"]["samples"], 4.0);
+    assert_eq!(doc["model"]["shadows"]["params"]["tint"], true);
+    let doc = stats(&["--terms", "ambient,specular:blinn:exponent=64"]);
+    assert_eq!(doc["model"]["terms"][1]["variant"], "blinn");
+    assert_eq!(doc["model"]["terms"][1]["params"]["exponent"], 64.0);
+    for (flag, bad, says) in [
+        ("--shadows", "soft:64", "parameters as KEY=VALUE"),
+        ("--shadows", "soft:square", "a shadow model has no variant `square`"),
+        ("--terms", "specular:phong:exponent=3", "variants blinn, blinn-normalized of `specular` take `exponent`"),
+    ] {
+        let o = lancer(dir.path(), &["render", "--width", "32", "-o", "y.png", flag, bad]);
+        assert!(!o.status.success() && stderr(&o).contains(says), "{bad}: {}", stderr(&o));
+    }
+    // Soft shadows with point lights only change nothing: said so.
+    let o = lancer(dir.path(), &["render", "--width", "32", "-o", "y.png", "--shadows", "soft"]);
+    assert!(stderr(&o).contains("every light here is a point"), "{}", stderr(&o));
+    assert!(!dir.path().join("y.png").exists() || o.status.success());
 }

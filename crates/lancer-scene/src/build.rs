@@ -58,7 +58,65 @@ impl Ctx<'_> {
     }
 
     fn syntax(&self, e: toml::de::Error) -> LoadError {
-        LoadError::at(self.file, self.src, e.span(), LoadErrorKind::Syntax(e.message().trim_end().to_owned()))
+        let message = e.message().trim_end();
+        let span = e.span().map(|span| back_to_the_line_it_belongs_to(self.src, span, message));
+        let mut message = with_did_you_mean(message);
+        if message.starts_with("missing comma between array elements") {
+            message.push_str(", or the `]` that closes the array");
+        }
+        LoadError::at(self.file, self.src, span, LoadErrorKind::Syntax(message))
+    }
+}
+
+/// An unclosed bracket or a missing comma is found at the start of the next line; the place to
+/// fix it is the end of the line before (the last one with something on it).
+fn back_to_the_line_it_belongs_to(src: &str, span: Range<usize>, message: &str) -> Range<usize> {
+    let start = span.start.min(src.len());
+    let at_line_start =
+        start == 0 || src[..start].ends_with('\n') || src[..start].trim_end_matches([' ', '\t']).ends_with('\n');
+    let about_a_missing_closer =
+        ["expected `]`", "expected `,`", "expected `]]`", "expected `}`"].iter().any(|m| message.contains(m));
+    if !(at_line_start && about_a_missing_closer) {
+        return span;
+    }
+    // The end of the previous line with code (comments and blank lines skipped).
+    let before = &src[..start];
+    let mut end = None;
+    for (offset, line) in line_starts(before).into_iter().rev() {
+        let code = line.split('#').next().unwrap_or("").trim_end();
+        if !code.trim().is_empty() {
+            end = Some(offset + code.len());
+            break;
+        }
+    }
+    end.map_or(span, |e| e..e)
+}
+
+/// Each line of `text` with its byte offset.
+fn line_starts(text: &str) -> Vec<(usize, &str)> {
+    let mut out = Vec::new();
+    let mut offset = 0;
+    for line in text.split_inclusive('\n') {
+        out.push((offset, line.trim_end_matches(['\n', '\r'])));
+        offset += line.len();
+    }
+    out
+}
+
+/// serde's "unknown field `shiny`, expected one of `color`, ..." with the nearest known name.
+fn with_did_you_mean(message: &str) -> String {
+    let Some(rest) = message.strip_prefix("unknown field `") else { return message.to_owned() };
+    let Some((field, expected)) = rest.split_once('`') else { return message.to_owned() };
+    let known: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+    // British spellings of the one key that has them.
+    let nearest = if field == "colour" && known.contains(&"color") {
+        Some("color".to_owned())
+    } else {
+        lancer_shading::nearest(field, known.iter().copied())
+    };
+    match nearest {
+        Some(n) => format!("{message} (did you mean `{n}`?)"),
+        None => message.to_owned(),
     }
 }
 
@@ -78,7 +136,7 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
     let cx = Ctx { file, src };
     let doc: SceneDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
     let pipeline = match &doc.model {
-        Some(m) => build_pipeline(&cx, m, registry)?,
+        Some(m) => build_pipeline(&cx, m, registry, None)?,
         None => registry.default_pipeline(),
     };
     let mut world = hecs::World::new();
@@ -194,11 +252,21 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
     Ok(Loaded { scene: Scene { world, camera, image, meta, textures: textures.list }, pipeline, warnings, places })
 }
 
-/// Loads a model file (the keys of `[model]` at top level), replacing a scene's own model.
+/// Loads a model file (the keys of `[model]` at top level) on its own: what it leaves out has
+/// its default.
 pub fn load_model(src: &str, file: &str, registry: &Registry) -> Result<Pipeline, LoadError> {
     let cx = Ctx { file, src };
     let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
-    build_pipeline(&cx, &doc, registry)
+    build_pipeline(&cx, &doc, registry, None)
+}
+
+/// Loads a model file over `base` (a scene's model): it replaces only what it sets (`terms`,
+/// `shadows`, `max_depth`), so a file that swaps the highlight leaves the scene's shadows and
+/// depth alone.
+pub fn load_model_over(src: &str, file: &str, registry: &Registry, base: Pipeline) -> Result<Pipeline, LoadError> {
+    let cx = Ctx { file, src };
+    let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
+    build_pipeline(&cx, &doc, registry, Some(base))
 }
 
 /// Scale, then rotate (degrees about x, then y, then z), then translate.
@@ -553,8 +621,11 @@ fn pattern(
     let syntax = |span: Range<usize>, msg: String| cx.err(span, LoadErrorKind::Syntax(msg));
     let scale = match &p.scale {
         None => 1.0,
-        Some(s) if s.get_ref().0 > 0.0 => s.get_ref().0,
-        Some(s) => return Err(syntax(s.span(), format!("`scale` must be positive, found {}", s.get_ref().0))),
+        // As an object's scale: a cell of 1e-38 units turns every coordinate into infinity.
+        Some(s) if (1e-6..=1e6).contains(&s.get_ref().0) => s.get_ref().0,
+        Some(s) => {
+            return Err(syntax(s.span(), format!("`scale` must be between 1e-6 and 1e6, found {}", s.get_ref().0)));
+        }
     };
     let unused = |key: &str, span: Option<Range<usize>>| match span {
         Some(span) => Err(syntax(span, format!("a {} pattern has no `{key}`", p.pattern.get_ref()))),
@@ -642,11 +713,24 @@ fn model_err(cx: &Ctx<'_>, entry: &Spanned<NamedDoc>, e: lancer_shading::ModelEr
     cx.err(span.unwrap_or_else(|| name_span(entry)), LoadErrorKind::Model(e))
 }
 
-fn build_pipeline(cx: &Ctx<'_>, m: &ModelDoc, registry: &Registry) -> Result<Pipeline, LoadError> {
+/// The pipeline `m` describes; what it leaves out comes from `base`, else has its default.
+fn build_pipeline(
+    cx: &Ctx<'_>,
+    m: &ModelDoc,
+    registry: &Registry,
+    base: Option<Pipeline>,
+) -> Result<Pipeline, LoadError> {
+    let (base_depth, base_shadows, base_terms) = match base {
+        Some(p) => (Some(p.max_depth), Some(p.shadows), Some(p.terms)),
+        None => (None, None, None),
+    };
+    let max_depth = m.max_depth.or(base_depth).unwrap_or(crate::doc::DEFAULT_DEPTH);
     let shadows = match &m.shadows {
-        None => registry
-            .build_shadow(lancer_shading::shadows::DEFAULT, Params::default())
-            .expect("the default shadow model exists"),
+        None => base_shadows.unwrap_or_else(|| {
+            registry
+                .build_shadow(lancer_shading::shadows::DEFAULT, Params::default())
+                .expect("the default shadow model exists")
+        }),
         Some(entry) => {
             let doc = entry.get_ref();
             if doc.key.as_deref() == Some("term") || doc.variant.is_some() {
@@ -666,7 +750,7 @@ fn build_pipeline(cx: &Ctx<'_>, m: &ModelDoc, registry: &Registry) -> Result<Pip
     };
     let terms = match &m.terms {
         None => {
-            return Pipeline::new(m.max_depth, shadows, registry.default_terms())
+            return Pipeline::new(max_depth, shadows, base_terms.unwrap_or_else(|| registry.default_terms()))
                 .map_err(|e| cx.err(0..0, LoadErrorKind::Model(e)));
         }
         Some(list) => list,
@@ -682,7 +766,7 @@ fn build_pipeline(cx: &Ctx<'_>, m: &ModelDoc, registry: &Registry) -> Result<Pip
             registry.build_term(doc.name.get_ref(), variant, params(cx, doc)?).map_err(|e| model_err(cx, entry, e))?,
         );
     }
-    Pipeline::new(m.max_depth, shadows, built).map_err(|e| {
+    Pipeline::new(max_depth, shadows, built).map_err(|e| {
         let dup = terms
             .iter()
             .enumerate()

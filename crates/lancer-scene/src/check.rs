@@ -74,6 +74,14 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
             });
         }
     }
+    if pipeline.shadows.name == "soft" && !prepared.lights.is_empty() && prepared.lights.iter().all(|l| l.size <= 0.0) {
+        out.push(Warning {
+            place: None,
+            message: "the `soft` shadow model samples area lights, and every light here is a point (`size = 0`): \
+                      the shadows are the same as `transmissive`'s; give a light a `size` for a penumbra"
+                .into(),
+        });
+    }
     let image = &scene.image;
     let camera_rays = image.width as f64 * image.height as f64 * image.samples.max(1) as f64;
     let estimate = camera_rays * (1.0 + prepared.lights.len() as f64);

@@ -58,8 +58,12 @@ fn index<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
     ranged(d, 1.0, 2.5)
 }
 
-fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    ranged(d, 0.0, f32::MAX)
+/// Largest light `intensity` and area light `size`: with colours up to [`MAX_CHANNEL`], the
+/// light reaching a point stays far from overflowing.
+pub const MAX_LIGHT: f32 = 1e6;
+
+fn light_range<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    ranged(d, 0.0, MAX_LIGHT)
 }
 
 /// Largest colour channel: well above any meaningful colour (the handout's are in [0, 1]), low
@@ -76,9 +80,27 @@ fn colour<'de, D: Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
     Ok([r.0, g.0, b.0])
 }
 
+/// A whole number in `[lo, hi]`: an integer, or a float with nothing after the point
+/// (`width = 480.0` is 480).
 fn one<'de, D: Deserializer<'de>>(d: D, lo: u32, hi: u32) -> Result<u32, D::Error> {
-    let v = i64::deserialize(d)?;
-    if (lo as i64..=hi as i64).contains(&v) {
+    struct Whole;
+    impl Visitor<'_> for Whole {
+        type Value = f64;
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("a whole number")
+        }
+        fn visit_i64<E: de::Error>(self, v: i64) -> Result<f64, E> {
+            Ok(v as f64)
+        }
+        fn visit_u64<E: de::Error>(self, v: u64) -> Result<f64, E> {
+            Ok(v as f64)
+        }
+        fn visit_f64<E: de::Error>(self, v: f64) -> Result<f64, E> {
+            Ok(v)
+        }
+    }
+    let v = d.deserialize_any(Whole)?;
+    if v.fract() == 0.0 && (lo as f64..=hi as f64).contains(&v) {
         Ok(v as u32)
     } else {
         Err(de::Error::custom(format!("expected a whole number in [{lo}, {hi}], found {v}")))
@@ -164,8 +186,21 @@ pub struct CameraDoc {
     pub to: [Num; 3],
     #[serde(default = "d_up")]
     pub up: [Num; 3],
-    #[serde(default = "d_fov")]
+    #[serde(default = "d_fov", deserialize_with = "fov")]
     pub fov: Num,
+}
+
+/// The vertical field of view: strictly between 0 and 180 degrees.
+fn fov<'de, D: Deserializer<'de>>(d: D) -> Result<Num, D::Error> {
+    let v = Num::deserialize(d)?;
+    if v.0 > 0.0 && v.0 < 180.0 {
+        Ok(v)
+    } else {
+        Err(de::Error::custom(format!(
+            "expected the vertical field of view in degrees, strictly between 0 and 180, found {}",
+            v.0
+        )))
+    }
 }
 
 fn d_up() -> [Num; 3] {
@@ -179,14 +214,40 @@ fn d_fov() -> Num {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ModelDoc {
-    #[serde(default = "d_depth", deserialize_with = "depth")]
-    pub max_depth: u8,
+    #[serde(default, deserialize_with = "opt_depth")]
+    pub max_depth: Option<u8>,
     pub shadows: Option<Spanned<NamedDoc>>,
+    #[serde(default, deserialize_with = "term_list")]
     pub terms: Option<Vec<Spanned<NamedDoc>>>,
 }
 
-fn d_depth() -> u8 {
-    5
+/// `terms = [...]`, with the list's own words when it is something else.
+fn term_list<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec<Spanned<NamedDoc>>>, D::Error> {
+    struct List;
+    impl<'de> Visitor<'de> for List {
+        type Value = Vec<Spanned<NamedDoc>>;
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("a list of terms, e.g. terms = [\"ambient\", \"diffuse\"]")
+        }
+        fn visit_str<E: de::Error>(self, v: &str) -> Result<Self::Value, E> {
+            Err(E::custom(format!("expected a list of terms in brackets: terms = [\"{v}\"]")))
+        }
+        fn visit_seq<A: de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+            let mut out = Vec::new();
+            while let Some(t) = seq.next_element()? {
+                out.push(t);
+            }
+            Ok(out)
+        }
+    }
+    d.deserialize_any(List).map(Some)
+}
+
+/// `max_depth` when none is given.
+pub const DEFAULT_DEPTH: u8 = 5;
+
+fn opt_depth<'de, D: Deserializer<'de>>(d: D) -> Result<Option<u8>, D::Error> {
+    depth(d).map(Some)
 }
 
 /// A term or shadow model: a bare name, or a table with its name under `key` (`term` or
@@ -328,9 +389,9 @@ pub struct LightDoc {
     pub at: [Num; 3],
     #[serde(default = "d_white", deserialize_with = "colour")]
     pub color: [f32; 3],
-    #[serde(default = "d_intensity", deserialize_with = "non_negative")]
+    #[serde(default = "d_intensity", deserialize_with = "light_range")]
     pub intensity: f32,
-    #[serde(default, deserialize_with = "non_negative")]
+    #[serde(default, deserialize_with = "light_range")]
     pub size: f32,
 }
 

@@ -7,7 +7,7 @@ mod check;
 mod doc;
 mod error;
 
-pub use build::{Loaded, Places, Resolver, load_model, load_scene, load_scene_with};
+pub use build::{Loaded, Places, Resolver, load_model, load_model_over, load_scene, load_scene_with};
 pub use check::check;
 pub use error::{LoadError, LoadErrorKind, Place, Warning};
 

@@ -426,3 +426,64 @@ fn regression_colours_are_bounded_so_products_along_a_ray_stay_finite() {
     let src = format!("{CAMERA}[[objects]]\nshape = \"sphere\"\nmaterial = {{ color = [1000, 0, 0] }}\n");
     assert!(crate::load_scene(&src, "s.toml", &Registry::with_builtins()).is_ok());
 }
+
+#[test]
+fn messages_a_student_meets_are_in_the_formats_words() {
+    let registry = Registry::with_builtins();
+    let load = |src: &str| crate::load_scene(src, "s.toml", &registry);
+    let message = |src: &str| match load(src) {
+        Err(e) => (e.line, e.column, e.to_string()),
+        Ok(_) => panic!("should not load: {src}"),
+    };
+    // A whole number written with a point is that number; a fraction is refused in plain words.
+    let src = format!("{CAMERA}[image]\nwidth = 480.0\nheight = 270\n");
+    assert_eq!(load(&src).unwrap().scene.image.width, 480);
+    let (.., m) = message(&format!("{CAMERA}[image]\nwidth = 480.5\n"));
+    assert!(m.contains("expected a whole number in [1, 16384], found 480.5") && !m.contains("i64"), "{m}");
+    // A single term without brackets.
+    let (.., m) = message(&format!("{CAMERA}[model]\nterms = \"ambient\"\n"));
+    assert!(
+        m.contains("expected a list of terms in brackets: terms = [\"ambient\"]") && !m.contains("sequence"),
+        "{m}"
+    );
+    // A negative weight: no forty-digit bound.
+    let (.., m) = message(&format!("{CAMERA}[model]\nterms = [{{ term = \"ambient\", weight = -1 }}]\n"));
+    assert!(m.contains("expected a number of at least 0, found -1"), "{m}");
+    // Misspelled keys get the nearest.
+    let src = format!("{CAMERA}[[objects]]\nshape = \"sphere\"\nmaterial = {{ shiny = 0.5 }}\n");
+    assert!(message(&src).2.contains("(did you mean `shine`?)"));
+    let src = format!("{CAMERA}[[objects]]\nshape = \"sphere\"\nmaterial = {{ colour = [1, 0, 0] }}\n");
+    assert!(message(&src).2.contains("(did you mean `color`?)"));
+    // `exponent` on the default specular names the variants that take it.
+    let (.., m) = message(&format!("{CAMERA}[model]\nterms = [{{ term = \"specular\", exponent = 64 }}]\n"));
+    assert!(m.contains("variants blinn, blinn-normalized of `specular` take `exponent`"), "{m}");
+    // A missing `]` is reported at the end of its own line, not at the start of the next.
+    let src = "[camera]\nfrom = [0, 0, -5\n\n# the target\nto = [0, 0, 0]\n";
+    let (line, column, m) = message(src);
+    assert_eq!((line, column), (2, 17), "{m}");
+    assert!(m.contains("or the `]` that closes the array"), "{m}");
+    // A bad fov is reported at the fov.
+    let src = format!("{CAMERA}fov = 180\n");
+    let (line, column, m) = message(&src);
+    assert_eq!((line, column), pos(&src, "180"), "{m}");
+    assert!(m.contains("strictly between 0 and 180"), "{m}");
+}
+
+#[test]
+fn regression_pattern_scales_and_light_intensities_are_bounded() {
+    // Found by the fuzzer: a checker or image `scale` of 7e-39 made texture coordinates
+    // infinite, and an `intensity` of 1e38 made the light infinite.
+    for (bad, says) in [
+        ("material = { color = { pattern = \"checker\", scale = 7e-39 } }", "between 1e-6 and 1e6"),
+        ("material = { color = { pattern = \"checker\", scale = 1e7 } }", "between 1e-6 and 1e6"),
+    ] {
+        let src = format!("{CAMERA}[[objects]]\nshape = \"sphere\"\n{bad}\n");
+        assert!(err(&src).to_string().contains(says), "{bad}: {}", err(&src));
+    }
+    for bad in ["intensity = 1e38", "size = 1e7", "intensity = -1"] {
+        let src = format!("{CAMERA}[[lights]]\nat = [0, 1, 0]\n{bad}\n");
+        let e = err(&src);
+        assert_eq!(e.line, 6, "{bad}: {e}");
+        assert!(e.to_string().contains("1000000"), "{bad}: {e}");
+    }
+}

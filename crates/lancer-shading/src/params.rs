@@ -89,7 +89,12 @@ impl Params {
             Some(ParamValue::Number(x)) if (lo..=hi).contains(&x) => Ok(x),
             Some(ParamValue::Number(x)) => Err(ParamError {
                 param: name.to_owned(),
-                message: format!("expected a number in [{lo}, {hi}], found {x}"),
+                // An open end (the largest float) is not worth printing in full.
+                message: if hi >= f32::MAX as f64 {
+                    format!("expected a number of at least {lo}, found {x}")
+                } else {
+                    format!("expected a number in [{lo}, {hi}], found {x}")
+                },
             }),
             Some(v) => Err(Self::wrong(name, "a number", &v)),
         }

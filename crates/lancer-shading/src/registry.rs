@@ -83,7 +83,12 @@ pub enum ModelError {
         known: Vec<String>,
     },
     /// A parameter the term or shadow model does not read.
-    #[error("`{owner}` has no parameter `{param}`{}; its parameters: {}", hint(nearest), if known.is_empty() { "none".to_owned() } else { known.join(", ") })]
+    #[error(
+        "`{owner}` has no parameter `{param}`{}; its parameters: {}{}",
+        hint(nearest),
+        if known.is_empty() { "none".to_owned() } else { known.join(", ") },
+        elsewhere_hint(owner, param, elsewhere)
+    )]
     UnknownParam {
         /// The term or shadow model.
         owner: String,
@@ -93,6 +98,8 @@ pub enum ModelError {
         nearest: Option<String>,
         /// The parameters it has.
         known: Vec<String>,
+        /// Other variants of the same term that do take the parameter.
+        elsewhere: Vec<String>,
     },
     /// A parameter of the wrong type or range.
     #[error("`{owner}`: {error}")]
@@ -185,7 +192,22 @@ impl Default for Registry {
     }
 }
 
-fn unused_param(owner: &str, params: &Params, specs: &[ParamSpec]) -> Result<(), ModelError> {
+/// "; variant blinn of `specular` takes `exponent` (...)" when other variants take the parameter.
+fn elsewhere_hint(owner: &str, param: &str, elsewhere: &[String]) -> String {
+    match elsewhere {
+        [] => String::new(),
+        [one] => format!(
+            "; variant {one} of `{owner}` takes `{param}`: {{ term = \"{owner}\", variant = \"{one}\", {param} = ... }}"
+        ),
+        many => format!(
+            "; variants {} of `{owner}` take `{param}`: {{ term = \"{owner}\", variant = \"{}\", {param} = ... }}",
+            many.join(", "),
+            many[0]
+        ),
+    }
+}
+
+fn unused_param(owner: &str, params: &Params, specs: &[ParamSpec], others: &[TermSpec]) -> Result<(), ModelError> {
     match params.unused().next() {
         None => Ok(()),
         Some(p) => Err(ModelError::UnknownParam {
@@ -193,6 +215,11 @@ fn unused_param(owner: &str, params: &Params, specs: &[ParamSpec]) -> Result<(),
             param: p.to_owned(),
             nearest: nearest(p, specs.iter().map(|s| s.name)),
             known: specs.iter().map(|s| s.name.to_owned()).collect(),
+            elsewhere: others
+                .iter()
+                .filter(|t| t.params.iter().any(|s| s.name == p))
+                .map(|t| t.variant.to_owned())
+                .collect(),
         }),
     }
 }
@@ -267,7 +294,8 @@ impl Registry {
         let weight = params.number(WEIGHT.name, 1.0, 0.0, f32::MAX as f64).map_err(bad)? as f32;
         let term = (spec.build)(&mut params).map_err(bad)?;
         let known: Vec<ParamSpec> = spec.params.iter().copied().chain([WEIGHT]).collect();
-        unused_param(name, &params, &known)?;
+        let others: Vec<TermSpec> = variants.iter().filter(|t| t.variant != spec.variant).map(|t| **t).collect();
+        unused_param(name, &params, &known, &others)?;
         Ok(NamedTerm { name: name.to_owned(), variant: spec.variant.to_owned(), weight, params: given, term })
     }
 
@@ -283,7 +311,7 @@ impl Registry {
         let given = params.given().map(|(k, v)| (k.to_owned(), v.clone())).collect();
         let model =
             (spec.build)(&mut params).map_err(|error| ModelError::BadParam { owner: name.to_owned(), error })?;
-        unused_param(name, &params, spec.params)?;
+        unused_param(name, &params, spec.params, &[])?;
         Ok(NamedShadow { name: name.to_owned(), params: given, model })
     }
 

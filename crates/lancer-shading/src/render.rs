@@ -79,13 +79,17 @@ pub fn render_prepared(
     let bands_count = height.div_ceil(TILE) as usize;
     let tiles_count = bands_count * width.div_ceil(TILE) as usize;
     let mut per_layer: Vec<_> = layers.iter_mut().map(|l| l.pixels.chunks_mut(band_len)).collect();
-    let bands: Vec<Vec<&mut [Vec3]>> = (0..bands_count)
-        .map(|_| per_layer.iter_mut().map(|chunks| chunks.next().expect("one chunk per band")).collect())
+    let mut bands: Vec<(usize, Vec<&mut [Vec3]>)> = (0..bands_count)
+        .map(|b| (b, per_layer.iter_mut().map(|chunks| chunks.next().expect("one chunk per band")).collect()))
         .collect();
+    // Bands in a spread order (each band still writes only its own rows, so the frame is the
+    // same): the tiles done at any moment sample the whole image, and the progress estimate
+    // does not trust an easy sky for a costly floor.
+    let order = spread_order(bands_count);
+    bands.sort_by_key(|(b, _)| order[*b]);
     let done = std::sync::atomic::AtomicUsize::new(0);
     let stats = bands
         .into_par_iter()
-        .enumerate()
         .map_init(
             || Scratch::new(pipeline.terms.len() + 1),
             |scratch, (band, mut out)| {
@@ -116,6 +120,20 @@ pub fn render_prepared(
             a
         });
     Frame { width, height, layers, stats }
+}
+
+/// For each of `n` items, its rank in an order that spreads over them (bit-reversed indices:
+/// 0, n/2, n/4, 3n/4, ...), so any prefix of the order samples the whole range.
+fn spread_order(n: usize) -> Vec<usize> {
+    let bits = usize::BITS - n.saturating_sub(1).leading_zeros();
+    let reversed = |i: usize| if bits == 0 { 0 } else { i.reverse_bits() >> (usize::BITS - bits) };
+    let mut by_key: Vec<usize> = (0..n).collect();
+    by_key.sort_by_key(|&i| reversed(i));
+    let mut rank = vec![0; n];
+    for (r, i) in by_key.into_iter().enumerate() {
+        rank[i] = r;
+    }
+    rank
 }
 
 /// What the terms of `pipeline` see of `prepared`.
@@ -405,7 +423,24 @@ fn background_system(world: &hecs::World, background: Vec3, background_layer: us
 
 #[cfg(test)]
 mod tests {
-    use super::sample_offset;
+    use super::{sample_offset, spread_order};
+
+    #[test]
+    fn the_band_order_spreads_every_prefix_over_the_image() {
+        for n in [1, 2, 3, 23, 45, 64, 68] {
+            let rank = spread_order(n);
+            let mut seen = rank.clone();
+            seen.sort();
+            assert_eq!(seen, (0..n).collect::<Vec<_>>(), "a permutation of {n}");
+            // The first quarter of the order has bands in every quarter of the image.
+            if n >= 8 {
+                let first: Vec<usize> = (0..n).filter(|&b| rank[b] < n.div_ceil(4)).collect();
+                for q in 0..4 {
+                    assert!(first.iter().any(|&b| b * 4 / n == q), "{n} bands: quarter {q} missing from {first:?}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn sample_offsets_stay_inside_the_pixel_and_differ() {
