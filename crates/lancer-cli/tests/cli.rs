@@ -535,8 +535,7 @@ fn watch_renders_again_on_save_keeps_the_last_image_on_a_broken_save_and_stops_o
         panic!("waited 10 s for {what}; log:\n{}", log());
     };
     let image = || std::fs::read(dir.path().join("out.png")).ok();
-    let watching = |n: usize| move || log().matches("watching").count() >= n;
-    wait_for("the first render", &watching(1));
+    wait_for("the first render", &|| log().contains("watching"));
     let first = image().expect("the first render wrote out.png");
     // An editor's save by rename: a new file moved over the old one.
     let save = |text: &str| {
@@ -544,16 +543,14 @@ fn watch_renders_again_on_save_keeps_the_last_image_on_a_broken_save_and_stops_o
         std::fs::rename(dir.path().join("s.toml.tmp"), dir.path().join("s.toml")).unwrap();
     };
     save(&glass.replace("background = [", "background = [0.9, 0.1, 0.1] # was ["));
-    wait_for("the second render", &watching(2));
+    wait_for("the render with the new background", &|| image().is_some_and(|i| i != first));
     let second = image().unwrap();
-    assert_ne!(first, second, "the new background shows");
     save("[camera]\nfrom = [0, 0]\n");
     wait_for("the broken save's error", &|| log().contains("s.toml:2:"));
-    wait_for("watching again", &watching(3));
+    wait_for("watching again", &|| log().rsplit("s.toml:2:").next().is_some_and(|after| after.contains("watching")));
     assert_eq!(image().unwrap(), second, "a broken save keeps the last image");
     save(&glass);
-    wait_for("the render after the fix", &watching(4));
-    assert_eq!(image().unwrap(), first);
+    wait_for("the render after the fix", &|| image().is_some_and(|i| i == first));
     let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().expect("kill runs");
     assert!(kill.success());
     let status = child.wait().unwrap();
