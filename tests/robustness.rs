@@ -482,3 +482,52 @@ fn a_model_with_only_ambient_traces_no_shadow_ray() {
     let frame = render(&lancer_tests::load(&only), Some(64), 1);
     assert_eq!(frame.stats.shadow_rays, 0);
 }
+
+/// A closed room of six slabs whose faces exactly touch (floor, ceiling, four walls), the
+/// light outside above the ceiling, the camera inside; everything scaled by `s`. Also a
+/// matte ball and a cube resting on the floor inside.
+fn closed_room(s: f64) -> String {
+    let v = |x: f64, y: f64, z: f64| format!("[{}, {}, {}]", x * s, y * s, z * s);
+    let slab = |scale: (f64, f64, f64), at: (f64, f64, f64)| {
+        format!(
+            "[[objects]]\nshape = \"cube\"\nscale = {}\ntranslate = {}\nmaterial = \"wall\"\n",
+            v(scale.0, scale.1, scale.2),
+            v(at.0, at.1, at.2)
+        )
+    };
+    let mut src = format!(
+        "[image]\nwidth = 64\nheight = 36\n[camera]\nfrom = {}\nto = {}\nfov = 70\n\
+         [model]\nshadows = \"hard\"\nterms = [\"diffuse\", \"specular\"]\n\
+         [materials.wall]\ncolor = [0.8, 0.8, 0.8]\ndiff = 0.9\nspec = 0.3\nshine = 0.8\n\
+         [[lights]]\nat = {}\n",
+        v(0.0, 2.0, -3.5),
+        v(0.0, 0.5, 2.0),
+        v(0.3, 9.0, 0.2)
+    );
+    // Floor y in [-1, 0], ceiling [4, 5]; walls between them, touching both and each other.
+    src += &slab((5.0, 0.5, 5.0), (0.0, -0.5, 0.0));
+    src += &slab((5.0, 0.5, 5.0), (0.0, 4.5, 0.0));
+    src += &slab((0.5, 2.0, 4.0), (-4.5, 2.0, 0.0));
+    src += &slab((0.5, 2.0, 4.0), (4.5, 2.0, 0.0));
+    src += &slab((5.0, 2.0, 0.5), (0.0, 2.0, -4.5));
+    src += &slab((5.0, 2.0, 0.5), (0.0, 2.0, 4.5));
+    src += &format!("[[objects]]\nshape = \"sphere\"\ntranslate = {}\nmaterial = \"wall\"\n", v(1.0, 1.0, 1.0));
+    src += &format!("[[objects]]\nshape = \"cube\"\nscale = {}\ntranslate = {}\nmaterial = \"wall\"\n", v(0.5, 0.5, 0.5), v(-1.5, 0.5, 1.0));
+    src
+}
+
+#[test]
+fn no_light_leaks_into_a_closed_room_of_touching_slabs_at_any_scale() {
+    // Every point inside is shadowed by the ceiling or a wall: the diffuse and specular images
+    // must be black everywhere, at every scale, and every value finite.
+    for s in [1e-3, 1.0, 1e4] {
+        let frame = render(&lancer_tests::load(&closed_room(s)), None, 2);
+        for name in ["diffuse", "specular"] {
+            let pixels = layer(&frame, name);
+            assert!(pixels.iter().all(|p| p.is_finite()), "scale {s}: {name} has a non-finite value");
+            let lit = pixels.iter().filter(|p| p.max_element() > 0.0).count();
+            assert_eq!(lit, 0, "scale {s}: {lit} {name} pixels lit through the walls");
+        }
+        assert!(frame.stats.shadow_rays > 1000, "the shadow rays were traced");
+    }
+}
