@@ -512,7 +512,11 @@ fn closed_room(s: f64) -> String {
     src += &slab((5.0, 2.0, 0.5), (0.0, 2.0, -4.5));
     src += &slab((5.0, 2.0, 0.5), (0.0, 2.0, 4.5));
     src += &format!("[[objects]]\nshape = \"sphere\"\ntranslate = {}\nmaterial = \"wall\"\n", v(1.0, 1.0, 1.0));
-    src += &format!("[[objects]]\nshape = \"cube\"\nscale = {}\ntranslate = {}\nmaterial = \"wall\"\n", v(0.5, 0.5, 0.5), v(-1.5, 0.5, 1.0));
+    src += &format!(
+        "[[objects]]\nshape = \"cube\"\nscale = {}\ntranslate = {}\nmaterial = \"wall\"\n",
+        v(0.5, 0.5, 0.5),
+        v(-1.5, 0.5, 1.0)
+    );
     src
 }
 

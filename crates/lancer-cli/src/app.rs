@@ -297,7 +297,8 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
     let load_start = Instant::now();
     let loaded = lancer_scene::load_scene_with(&src, &name, registry, &resolve).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
-    let (mut scene, warnings, places) = (loaded.scene, loaded.warnings, loaded.places);
+    let (mut scene, warnings, mut places) = (loaded.scene, loaded.warnings, loaded.places);
+    places.chosen_terms |= args.terms.is_some() || args.model.is_some();
     let mut pipeline = match &args.model {
         Some(p) => lancer_scene::load_model_over(
             &read(p, "model", args.max_file_size)?,

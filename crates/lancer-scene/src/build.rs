@@ -37,6 +37,10 @@ pub struct Places {
     pub lights: Vec<Place>,
     /// The `[camera]` table.
     pub camera: Option<Place>,
+    /// Whether the model's terms were chosen (a `terms` list in the scene, or on the command
+    /// line) rather than left to the default: only chosen terms are worth a warning when they
+    /// have nothing to act on.
+    pub chosen_terms: bool,
 }
 
 struct Ctx<'a> {
@@ -144,7 +148,11 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
     let mut textures = Textures { list: Vec::new(), by_path: HashMap::new(), resolve };
     let mut meshes = Meshes::default();
     let mut warnings = Vec::new();
-    let mut places = Places { camera: Some(cx.place(doc.camera.span())), ..Places::default() };
+    let mut places = Places {
+        camera: Some(cx.place(doc.camera.span())),
+        chosen_terms: doc.model.as_ref().is_some_and(|m| m.terms.is_some()),
+        ..Places::default()
+    };
     let mut named: HashMap<&str, hecs::Entity> = HashMap::new();
     for (name, m) in &doc.materials {
         let m = material(&cx, m, &mut textures, &mut warnings)?;
@@ -428,13 +436,25 @@ impl Meshes {
         }
         let bad = |msg: String| cx.err(path.span(), LoadErrorKind::Syntax(format!("mesh `{}`: {msg}", path.get_ref())));
         let bytes = resolve(path.get_ref()).map_err(bad)?;
+        if bytes.starts_with(&[0xFE, 0xFF]) || bytes.starts_with(&[0xFF, 0xFE]) {
+            return Err(bad("the file is UTF-16 text; save it as UTF-8 or ASCII".into()));
+        }
+        // Materials come from the scene: the OBJ's own (`mtllib`, `usemtl`, sometimes broken
+        // in real files) are left out before parsing.
+        let mut bytes = without_materials(bytes);
         // Corners indexed one way throughout: tobj would fill a corner's missing normal or
-        // texture coordinates with another corner's.
+        // texture coordinates with another corner's. A file that mixes them keeps its
+        // positions only (flat, untextured), and says so.
         if let Some(line) = mixed_corners(&bytes) {
-            return Err(bad(format!(
-                "line {line} gives its corners normals or texture coordinates differently from the faces before it; \
-                 give every corner the same kind of indices (v, v/vt, v//vn or v/vt/vn)"
-            )));
+            bytes = positions_only(&bytes);
+            warnings.push(cx.warn(
+                path.span(),
+                format!(
+                    "mesh `{}`: line {line} gives its corners normals or texture coordinates differently from the \
+                     faces before it; they are ignored for the whole mesh (flat shading, no texture coordinates)",
+                    path.get_ref()
+                ),
+            ));
         }
         // Separate index lists (single_index would hash every corner): most files index normals
         // and texture coordinates like positions, and `one_index` merges them only otherwise.
@@ -444,8 +464,10 @@ impl Meshes {
         let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, no_materials)
             .map_err(|e| bad(format!("not a readable OBJ file ({e})")))?;
         let (mut positions, mut normals, mut uvs, mut triangles) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let smooth = models.iter().all(|m| !m.mesh.normals.is_empty());
-        let textured = models.iter().all(|m| !m.mesh.texcoords.is_empty());
+        // Normals and texture coordinates count only where faces refer to them: a file may list
+        // `vn` lines its faces never use.
+        let smooth = models.iter().all(|m| !m.mesh.normals.is_empty() && !m.mesh.normal_indices.is_empty());
+        let textured = models.iter().all(|m| !m.mesh.texcoords.is_empty() && !m.mesh.texcoord_indices.is_empty());
         for model in &models {
             let m = one_index(&model.mesh, smooth, textured).map_err(|e| bad(e.to_owned()))?;
             let base = positions.len() as u32;
@@ -469,6 +491,9 @@ impl Meshes {
             }
         });
         let skipped = before - triangles.len();
+        if before == 0 {
+            return Err(bad("the file has no faces (`f` lines): nothing to render".into()));
+        }
         if skipped == before {
             return Err(bad(format!("every triangle ({before}) is degenerate (its corners are on one line)")));
         }
@@ -486,6 +511,45 @@ impl Meshes {
         self.by_path.insert(path.get_ref().clone(), mesh.clone());
         Ok(mesh)
     }
+}
+
+/// The OBJ text without its `mtllib` and `usemtl` lines.
+fn without_materials(obj: Vec<u8>) -> Vec<u8> {
+    let is_material = |line: &[u8]| {
+        let t = line.trim_ascii_start();
+        t.starts_with(b"mtllib") || t.starts_with(b"usemtl")
+    };
+    if !obj.split(|&b| b == b'\n').any(is_material) {
+        return obj;
+    }
+    let kept: Vec<&[u8]> = obj.split(|&b| b == b'\n').filter(|l| !is_material(l)).collect();
+    kept.join(&b'\n')
+}
+
+/// The OBJ text with every face corner reduced to its position index (`7/3/2` → `7`), and no
+/// normals or texture coordinates (tobj would still attach those to positions).
+fn positions_only(obj: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(obj.len());
+    for (i, line) in obj.split(|&b| b == b'\n').enumerate() {
+        if i > 0 {
+            out.push(b'\n');
+        }
+        let t = line.trim_ascii_start();
+        if t.starts_with(b"vn") || t.starts_with(b"vt") {
+            continue;
+        }
+        match line.strip_prefix(b"f ").or_else(|| line.strip_prefix(b"f\t")) {
+            Some(rest) => {
+                out.extend_from_slice(b"f");
+                for corner in rest.split(|b| b.is_ascii_whitespace()).filter(|c| !c.is_empty()) {
+                    out.push(b' ');
+                    out.extend_from_slice(corner.split(|&b| b == b'/').next().unwrap_or(corner));
+                }
+            }
+            None => out.extend_from_slice(line),
+        }
+    }
+    out
 }
 
 /// The first line (from 1) of an OBJ file whose face corners are indexed differently (`v`,

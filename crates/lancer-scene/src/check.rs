@@ -63,7 +63,7 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
     }
     for term in &pipeline.terms {
         let used = (0..geometry.objects.len()).any(|i| term.term.acts_on(material(i)));
-        if !used && !geometry.objects.is_empty() {
+        if !used && !geometry.objects.is_empty() && places.chosen_terms {
             out.push(Warning {
                 place: None,
                 message: format!(

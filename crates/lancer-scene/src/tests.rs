@@ -364,18 +364,47 @@ fn meshes_load_through_the_resolver_and_bad_files_are_located_errors() {
 
 /// Loads a scene whose one object is the mesh `obj` (given as the file `m.obj`).
 fn load_mesh(obj: &str) -> Result<crate::Loaded, crate::LoadError> {
+    load_mesh_bytes(obj.as_bytes())
+}
+
+fn load_mesh_bytes(obj: &[u8]) -> Result<crate::Loaded, crate::LoadError> {
     let src = format!("{CAMERA}[[objects]]\nshape = \"mesh\"\npath = \"m.obj\"\n");
-    let resolve = |_: &str| Ok(obj.as_bytes().to_vec());
+    let resolve = |_: &str| Ok(obj.to_vec());
     crate::load_scene_with(&src, "s.toml", &Registry::with_builtins(), &resolve)
 }
 
 #[test]
-fn regression_faces_that_mix_corner_kinds_are_refused() {
+fn regression_faces_that_mix_corner_kinds_load_flat_with_a_warning() {
     // With separate index lists, tobj fills a corner's missing normal from another corner's: a
-    // file mixing `f 1//1 ...` and `f 4 5 6` would load with made-up normals.
+    // file mixing `f 1//1 ...` and `f 4 5 6` would load with made-up normals. Refusing it
+    // refused real files (an exporter's raft with `v/vt` faces after plain ones): it loads
+    // with positions only.
     let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 3 4\n";
-    let e = load_mesh(obj).err().expect("refused");
-    assert!(e.to_string().contains("line 7 gives its corners normals or texture coordinates differently"), "{e}");
+    let l = load_mesh(obj).unwrap_or_else(|e| panic!("{e}"));
+    match l.scene.world.query::<&Shape>().iter().next().unwrap() {
+        Shape::Mesh(m) => {
+            assert!(m.triangle_count() == 2 && !m.is_smooth(), "{} {}", m.triangle_count(), m.is_smooth())
+        }
+        other => panic!("{other:?}"),
+    }
+    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert!(
+        w.iter().any(|w| w.contains("line 7 gives its corners normals or texture coordinates differently")
+            && w.contains("flat shading")),
+        "{w:?}"
+    );
+}
+
+#[test]
+fn real_obj_quirks_load_or_say_what_is_wrong() {
+    // A broken `usemtl` (materials come from the scene), no faces, UTF-16 text.
+    let l = load_mesh("mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl \nf 1 2 3\n").unwrap_or_else(|e| panic!("{e}"));
+    assert!(l.warnings.is_empty() || l.warnings.iter().all(|w| !w.message.contains("mesh")));
+    let e = load_mesh("v 0 0 0\nv 1 0 0\n").err().expect("no faces");
+    assert!(e.to_string().contains("the file has no faces"), "{e}");
+    let utf16: Vec<u8> = [0xFF, 0xFE].into_iter().chain("v 0 0 0\n".bytes().flat_map(|b| [b, 0])).collect();
+    let e = load_mesh_bytes(&utf16).err().expect("UTF-16 is refused");
+    assert!(e.to_string().contains("UTF-16 text; save it as UTF-8"), "{e}");
 }
 
 #[test]
