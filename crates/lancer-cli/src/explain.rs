@@ -169,7 +169,18 @@ impl Report<'_> {
                 })
                 .collect();
             let into = self.credit_name(ray).unwrap_or(name);
-            let _ = writeln!(out, "{pad}{name}: colour {}, adds {} to the {into} image", v(term.colour), v(term.added));
+            if term.colour == Vec3::ZERO && term.added == Vec3::ZERO {
+                let n = children.len();
+                let _ = writeln!(
+                    out,
+                    "{pad}{name}: spawns {n} ray{} (what {} brings back counts in the {into} image)",
+                    if n == 1 { "" } else { "s" },
+                    if n == 1 { "it" } else { "they" }
+                );
+            } else {
+                let _ =
+                    writeln!(out, "{pad}{name}: colour {}, adds {} to the {into} image", v(term.colour), v(term.added));
+            }
             for note in notes {
                 let _ = writeln!(out, "{pad}  {note}");
             }
