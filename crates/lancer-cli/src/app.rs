@@ -11,7 +11,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use lancer_core::Frame;
 use lancer_core::frame::BACKGROUND;
-use lancer_shading::{Params, Pipeline, Registry, RenderOptions};
+use lancer_shading::{Choice, Pipeline, Registry, RenderOptions};
 
 /// The largest image, in pixels, Lancer agrees to render (8192 × 8192).
 const MAX_PIXELS: u64 = 1 << 26;
@@ -76,8 +76,9 @@ pub(crate) struct SceneArgs {
     #[arg(long, value_name = "FILE")]
     pub(crate) model: Option<PathBuf>,
     /// Replace the model's terms (keeping its shadows and depth): names in order, each with an
-    /// optional variant and parameters, e.g. `ambient,diffuse,specular:blinn:exponent=64`. A
-    /// term the scene already has keeps its parameters unless given again.
+    /// optional variant (the default one otherwise) and parameters, e.g.
+    /// `ambient,diffuse,specular:blinn:exponent=64`. A term the scene has in the same variant
+    /// keeps its parameters (`weight` too) unless given again.
     #[arg(long, value_name = "TERM[:VARIANT][:KEY=VALUE]...,...", value_delimiter = ',')]
     terms: Option<Vec<String>>,
     /// Replace the model's shadow model, with parameters as KEY=VALUE, e.g. `none`, `hard`,
@@ -210,56 +211,6 @@ fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
     String::from_utf8(bytes).with_context(|| format!("reading {what} {}: not UTF-8 text", path.display()))
 }
 
-/// A term or shadow model chosen on the command line: `NAME[:VARIANT][:KEY=VALUE]...`, the
-/// same for `--terms` and `--shadows` (`specular:blinn:exponent=64`, `soft:samples=64`).
-struct Choice {
-    name: String,
-    variant: Option<String>,
-    params: Vec<(String, lancer_shading::ParamValue)>,
-}
-
-impl Choice {
-    fn parse(entry: &str) -> Result<Choice> {
-        use lancer_shading::ParamValue;
-        let mut parts = entry.split(':').map(str::trim);
-        let name = parts.next().unwrap_or_default().to_owned();
-        if name.is_empty() {
-            bail!("expected NAME[:VARIANT][:KEY=VALUE]...");
-        }
-        let (mut variant, mut params) = (None, Vec::new());
-        for (i, part) in parts.enumerate() {
-            match part.split_once('=') {
-                Some((k, v)) => {
-                    let v = v.trim();
-                    let value = match v {
-                        "true" => ParamValue::Bool(true),
-                        "false" => ParamValue::Bool(false),
-                        _ => match v.parse::<f64>() {
-                            Ok(x) if x.is_finite() => ParamValue::Number(x),
-                            _ => ParamValue::Text(v.trim_matches('"').to_owned()),
-                        },
-                    };
-                    params.push((k.trim().to_owned(), value));
-                }
-                None if i == 0 && params.is_empty() && part.parse::<f64>().is_err() => variant = Some(part.to_owned()),
-                None => bail!(
-                    "`{part}`: after the name come an optional variant, then parameters as KEY=VALUE \
-                     (e.g. soft:samples=64, specular:blinn:exponent=64); `lancer terms` lists them"
-                ),
-            }
-        }
-        Ok(Choice { name, variant, params })
-    }
-
-    /// These parameters over `base`'s (a scene's, for the same choice).
-    fn over(&self, base: &[(String, lancer_shading::ParamValue)]) -> Params {
-        let mut all: Vec<(String, lancer_shading::ParamValue)> =
-            base.iter().filter(|(k, _)| !self.params.iter().any(|(p, _)| p == k)).cloned().collect();
-        all.extend(self.params.iter().cloned());
-        Params::new(all)
-    }
-}
-
 /// A scene loaded with its model, the command line's changes applied.
 struct Loaded {
     scene: lancer_core::Scene,
@@ -312,23 +263,28 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
     if let Some(list) = &args.terms {
         let mut terms = Vec::with_capacity(list.len());
         for entry in list {
-            let choice = Choice::parse(entry).with_context(|| format!("in --terms {entry}"))?;
-            // The scene's parameters for the same term and variant stay, unless given again.
-            let kept = pipeline
-                .terms
-                .iter()
-                .find(|t| t.name == choice.name && choice.variant.as_ref().is_none_or(|v| *v == t.variant));
-            let variant = choice.variant.clone().or_else(|| kept.map(|t| t.variant.clone()));
-            let params = choice.over(kept.map(|t| t.params.as_slice()).unwrap_or_default());
-            let term = registry
-                .build_term(&choice.name, variant.as_deref(), params)
-                .with_context(|| format!("in --terms {entry}"))?;
+            let choice = Choice::parse(entry).map_err(anyhow::Error::msg).context("in --terms")?;
+            // A name means its default variant, as in a scene file. When the scene has the
+            // same term in the same variant, its parameters (weight included) stay unless given
+            // again.
+            let context = || format!("in --terms {entry}");
+            let plain = registry.build_term(&choice.name, choice.variant.as_deref(), choice.over(&[]));
+            let kept = plain
+                .as_ref()
+                .ok()
+                .and_then(|built| pipeline.terms.iter().find(|t| t.name == built.name && t.variant == built.variant));
+            let term = match kept {
+                Some(k) => {
+                    registry.build_term(&choice.name, Some(&k.variant), choice.over(&k.params)).with_context(context)?
+                }
+                None => plain.with_context(context)?,
+            };
             terms.push(term);
         }
         pipeline = Pipeline::new(pipeline.max_depth, pipeline.shadows, terms).context("in --terms")?;
     }
     if let Some(entry) = &args.shadows {
-        let choice = Choice::parse(entry).with_context(|| format!("in --shadows {entry}"))?;
+        let choice = Choice::parse(entry).map_err(anyhow::Error::msg).context("in --shadows")?;
         if let Some(v) = &choice.variant {
             bail!(
                 "in --shadows {entry}: a shadow model has no variant `{v}`; give parameters as KEY=VALUE, e.g. soft:samples=64"
@@ -601,6 +557,10 @@ fn write_aovs(
 fn earlier_files(manifest: &Path) -> Vec<String> {
     let Ok(text) = std::fs::read_to_string(manifest) else { return Vec::new() };
     let Ok(doc) = serde_json::from_str::<serde_json::Value>(&text) else { return Vec::new() };
+    // Only a manifest Lancer wrote: another tool's `manifest.json` names files Lancer must not touch.
+    if doc["generator"] != crate::stats::GENERATOR {
+        return Vec::new();
+    }
     doc["files"]
         .as_array()
         .map(|a| a.iter().filter_map(|f| f.as_str().map(str::to_owned)).collect())

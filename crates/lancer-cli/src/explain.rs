@@ -140,10 +140,14 @@ impl Report<'_> {
                     v(light.transmittance),
                     v(light.incoming)
                 )
-            } else if light.n_dot_w <= 0.0 {
-                format!("behind the surface (N·w = {:.4}): sends nothing", light.n_dot_w)
+            } else if !light.read {
+                format!(
+                    "w = {}, N·w = {:.4}; not traced: no term of the model reads lights on this material",
+                    v(light.w),
+                    light.n_dot_w
+                )
             } else {
-                "not traced: no term of the model reads lights on this material".to_owned()
+                format!("behind the surface (N·w = {:.4}): sends nothing", light.n_dot_w)
             };
             let _ = writeln!(out, "{pad}light {}: {line}", k + 1);
         }
@@ -245,6 +249,7 @@ impl Report<'_> {
                 .map(|l| JsonLight {
                     w: l.w.to_array(),
                     n_dot_w: l.n_dot_w,
+                    read: l.read,
                     traced: l.traced,
                     transmittance: l.transmittance.to_array(),
                     incoming: l.incoming.to_array(),
@@ -336,6 +341,7 @@ struct JsonHit {
 struct JsonLight {
     w: [f32; 3],
     n_dot_w: f32,
+    read: bool,
     traced: bool,
     transmittance: [f32; 3],
     incoming: [f32; 3],

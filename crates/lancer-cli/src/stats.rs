@@ -124,6 +124,7 @@ impl Run<'_> {
         let (s, img, p) = (self.stats, self.image, self.pipeline);
         let secs = |d: &Duration| d.as_secs_f64();
         let doc = Doc {
+            generator: GENERATOR,
             scene: self.scene,
             width: img.width,
             height: img.height,
@@ -163,8 +164,12 @@ impl Run<'_> {
     }
 }
 
+/// What `Doc::generator` says: a manifest of Lancer's, whose `files` Lancer may remove.
+pub const GENERATOR: &str = "lancer";
+
 #[derive(Serialize)]
 struct Doc<'a> {
+    generator: &'static str,
     scene: &'a str,
     width: u32,
     height: u32,

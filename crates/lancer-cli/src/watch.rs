@@ -15,6 +15,14 @@ use crate::app::{RenderArgs, render_recording};
 /// a copy and rename it over the file) is one change, not several.
 const SETTLE: Duration = Duration::from_millis(150);
 
+/// A file's size and modification time (`None` when it is gone).
+type Stamp = (u64, std::time::SystemTime);
+
+fn stamp(path: &Path) -> Option<Stamp> {
+    let meta = std::fs::metadata(path).ok()?;
+    Some((meta.len(), meta.modified().ok()?))
+}
+
 /// An absolute form of `path`, with `.` and `..` resolved where the folder exists, so events
 /// (which name absolute paths) can be compared with it.
 fn absolute(path: &Path) -> PathBuf {
@@ -60,6 +68,10 @@ pub fn watch(registry: &Registry, args: RenderArgs) -> Result<()> {
             }
         }
         eprintln!("watching {} file(s) for changes; Ctrl-C to stop", files.len());
+        // What the files were when they were read: an event (the watcher also reports files
+        // being opened, as the render itself does) counts only if a file's size or modification
+        // time moved since.
+        let read_as: Vec<Option<Stamp>> = files.iter().map(|f| stamp(f)).collect();
         loop {
             let events = match rx.recv().context("the file watcher stopped")? {
                 Ok(events) => events,
@@ -68,8 +80,11 @@ pub fn watch(registry: &Registry, args: RenderArgs) -> Result<()> {
                     continue;
                 }
             };
-            if let Some(e) = events.iter().find(|e| files.contains(&absolute(&e.path))) {
-                eprintln!("{} changed: rendering again", e.path.display());
+            if !events.iter().any(|e| files.contains(&absolute(&e.path))) {
+                continue;
+            }
+            if let Some(i) = (0..files.len()).find(|&i| stamp(&files[i]) != read_as[i]) {
+                eprintln!("{} changed: rendering again", files[i].display());
                 break;
             }
         }

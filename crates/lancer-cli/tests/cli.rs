@@ -329,6 +329,16 @@ fn explain_json_totals_are_the_aov_exr_values_of_the_pixel() {
                 text.contains("refraction ray") && text.contains("u_t = VctTransmis") && text.contains("J (exit)"),
                 "{text}"
             );
+            // With no term reading lights, the lights are named as not traced, not as behind.
+            let o = lancer(
+                dir.path(),
+                &["explain", &path, "--width", "64", "--pixel", "40,20", "--terms", "ambient,mirror"],
+            );
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert!(
+                text.contains("not traced: no term of the model reads lights") && !text.contains("behind"),
+                "{text}"
+            );
         }
     }
 }
@@ -493,6 +503,12 @@ fn check_warns_about_a_flawed_scene_and_renders_nothing() {
         assert!(out.contains(want), "check says `{want}`:\n{out}");
     }
     assert!(!out.contains("light 2 is inside"), "{out}");
+    // A costly render is said so, with the figure, before it starts.
+    let o = lancer(dir.path(), &["check", "--width", "4096", "--samples", "256"]);
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(out.contains("this render traces at least 7248 M rays (4096x2304 pixels x 256 samples"), "{out}");
+    let o = lancer(dir.path(), &["check"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0 warnings"), "the default scene is clean");
     assert!(files(dir.path()) == ["flawed.toml"], "check writes nothing");
     // A broken scene: the same located error as render, and a failure.
     std::fs::write(dir.path().join("bad.toml"), "[camera]\nfrom = [0, 0]\n").unwrap();
@@ -545,6 +561,9 @@ fn watch_renders_again_on_save_keeps_the_last_image_on_a_broken_save_and_stops_o
     save(&glass.replace("background = [", "background = [0.9, 0.1, 0.1] # was ["));
     wait_for("the render with the new background", &|| image().is_some_and(|i| i != first));
     let second = image().unwrap();
+    // One save, one render: the render's own reading of the scene is no change.
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert_eq!(log().matches("rendering again").count(), 1, "{}", log());
     save("[camera]\nfrom = [0, 0]\n");
     wait_for("the broken save's error", &|| log().contains("s.toml:2:"));
     wait_for("watching again", &|| log().rsplit("s.toml:2:").next().is_some_and(|after| after.contains("watching")));
@@ -600,6 +619,24 @@ fn terms_and_shadows_flags_share_one_syntax_and_keep_the_scenes_parameters() {
     let doc = stats(&[&soft, "--shadows", "soft:samples=4:tint=true"]);
     assert_eq!(doc["model"]["shadows"]["params"]["samples"], 4.0);
     assert_eq!(doc["model"]["shadows"]["params"]["tint"], true);
+    // A term in the scene's variant keeps the scene's parameters; a name alone is the default
+    // variant, with none of them.
+    let glossy = std::fs::read_to_string(scene("glass.toml"))
+        .unwrap()
+        .replace("\"specular\",", "{ term = \"specular\", variant = \"blinn\", exponent = 64 },");
+    std::fs::write(dir.path().join("glossy.toml"), glossy).unwrap();
+    let doc = stats(&["glossy.toml", "--terms", "ambient,specular:blinn"]);
+    assert_eq!(doc["model"]["terms"][1]["params"]["exponent"], 64.0);
+    let doc = stats(&["glossy.toml", "--terms", "ambient,specular"]);
+    assert_eq!(doc["model"]["terms"][1]["variant"], "phong");
+    assert_eq!(doc["model"]["terms"][1]["params"], serde_json::json!({}));
+    // The same choice syntax in a scene file.
+    let inline = std::fs::read_to_string(scene("glass.toml"))
+        .unwrap()
+        .replace("\"specular\",", "\"specular:blinn:exponent=32\",");
+    std::fs::write(dir.path().join("inline.toml"), inline).unwrap();
+    let doc = stats(&["inline.toml"]);
+    assert_eq!(doc["model"]["terms"][2]["params"]["exponent"], 32.0);
     let doc = stats(&["--terms", "ambient,specular:blinn:exponent=64"]);
     assert_eq!(doc["model"]["terms"][1]["variant"], "blinn");
     assert_eq!(doc["model"]["terms"][1]["params"]["exponent"], 64.0);

@@ -774,7 +774,8 @@ fn model_err(cx: &Ctx<'_>, entry: &Spanned<NamedDoc>, e: lancer_shading::ModelEr
         M::UnknownVariant { .. } => doc.variant.as_ref().map(|v| v.span()).filter(|s| !s.is_empty()),
         _ => None,
     };
-    cx.err(span.unwrap_or_else(|| name_span(entry)), LoadErrorKind::Model(e))
+    // Parameters written inside a string (`"soft:samples=0"`) have no span of their own.
+    cx.err(span.filter(|s| !s.is_empty()).unwrap_or_else(|| name_span(entry)), LoadErrorKind::Model(e))
 }
 
 /// The pipeline `m` describes; what it leaves out comes from `base`, else has its default.

@@ -47,7 +47,8 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
         }
     }
     for a in (0..geometry.objects.len()).filter(|&a| material(a).alpha > 0.0) {
-        for b in (0..geometry.objects.len()).filter(|&b| b != a) {
+        // Two transparent objects: said once.
+        for b in (0..geometry.objects.len()).filter(|&b| b != a && (b > a || material(b).alpha <= 0.0)) {
             if geometry.overlap(a as u32, b as u32) {
                 out.push(Warning {
                     place: places.objects.get(a).cloned(),

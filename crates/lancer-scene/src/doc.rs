@@ -268,13 +268,23 @@ impl<'de> Visitor<'de> for NamedVisitor {
         f.write_str("a name, or a table such as { term = \"specular\", variant = \"phong\" }")
     }
     fn visit_str<E: de::Error>(self, v: &str) -> Result<NamedDoc, E> {
-        // `name` or `name:variant`, as on the command line. The string's span is the enclosing
-        // Spanned's; the builder fills it in.
-        let (name, variant) = match v.split_once(':') {
-            Some((n, var)) => (n.trim(), Some(Spanned::new(0..0, var.trim().to_owned()))),
-            None => (v, None),
-        };
-        Ok(NamedDoc { name: Spanned::new(0..0, name.to_owned()), variant, params: Vec::new(), key: None })
+        // `NAME[:VARIANT][:KEY=VALUE]...`, as on the command line. The string's span is the
+        // enclosing Spanned's; the builder places errors there.
+        let c = lancer_shading::Choice::parse(v).map_err(E::custom)?;
+        let params = c
+            .params
+            .into_iter()
+            .map(|(k, value)| {
+                let value = match value {
+                    lancer_shading::ParamValue::Number(x) => toml::Value::Float(x),
+                    lancer_shading::ParamValue::Bool(b) => toml::Value::Boolean(b),
+                    lancer_shading::ParamValue::Text(t) => toml::Value::String(t),
+                };
+                (Spanned::new(0..0, k), Spanned::new(0..0, value))
+            })
+            .collect();
+        let variant = c.variant.map(|v| Spanned::new(0..0, v));
+        Ok(NamedDoc { name: Spanned::new(0..0, c.name), variant, params, key: None })
     }
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<NamedDoc, A::Error> {
         let (mut name, mut variant, mut key, mut params) = (None, None, None, Vec::new());

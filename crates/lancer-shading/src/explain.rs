@@ -84,6 +84,8 @@ pub struct LightNode {
     pub w: Vec3,
     /// `N·w`.
     pub n_dot_w: f32,
+    /// Whether some term of the model reads lights on this material.
+    pub read: bool,
     /// Whether a shadow ray was traced (the light is in front of the surface and some term
     /// reads lights on this material).
     pub traced: bool,
@@ -120,7 +122,8 @@ pub fn explain_pixel(
     let mut scratch = Scratch::new(pipeline.terms.len() + 1);
     let mut recorder = Recorder::default();
     let tile = Tile { x0: x, y0: y, w: 1, h: 1 };
-    render_tile(&ctx, camera, image, pipeline, tile, &mut scratch, Some(&mut recorder), false);
+    let mut stats = lancer_core::RenderStats::default();
+    render_tile(&ctx, camera, image, pipeline, tile, &mut scratch, Some(&mut recorder), false, &mut stats);
     let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
     names.push(BACKGROUND.to_owned());
     let layers: Vec<(String, Vec3)> = names.into_iter().zip(scratch.accum.iter().map(|acc| acc[0])).collect();
@@ -161,7 +164,10 @@ impl Recorder {
         // Its own count of shadow rays: asking again does not change the render's.
         let shadow_ctx = ShadowContext::new(ctx);
         let pending = std::mem::take(&mut self.pending);
+        // hecs iterates an archetype in spawn order, and the world was emptied before this
+        // generation's chunks were spawned in `next`'s order: chunk i is pending ray i.
         let mut chunks = world.query::<(&Rays, &Hits, &LightSamples)>();
+        assert_eq!(chunks.iter().count(), pending.len(), "one chunk per queued ray");
         for ((rays, hits, samples), (parent, sample)) in chunks.iter().zip(pending) {
             let id = self.rays.len();
             if let Some((p, _)) = parent {
@@ -202,6 +208,8 @@ impl Recorder {
                 // The visibility system's light entries, and the transmittance it multiplied in
                 // (asked again of the shadow model, which answers the same for the same hit).
                 for (k, (w, incoming)) in samples.lane(0).enumerate() {
+                    // The visibility system leaves `w` unset where no term reads lights.
+                    let w = if reads { w } else { (ctx.lights[k].at - hit.point).normalize_or_zero() };
                     let n_dot_w = n.dot(w);
                     let traced = reads && w != Vec3::ZERO && n_dot_w > 0.0;
                     let transmittance = if traced {
@@ -209,7 +217,7 @@ impl Recorder {
                     } else {
                         Vec3::ZERO
                     };
-                    node.lights.push(LightNode { w, n_dot_w, traced, transmittance, incoming });
+                    node.lights.push(LightNode { w, n_dot_w, read: reads, traced, transmittance, incoming });
                 }
             }
             self.current.push(id);

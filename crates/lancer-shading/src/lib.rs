@@ -5,6 +5,7 @@
 //! This crate knows nothing of TOML files or the command line: a model arrives as names and typed
 //! parameters ([`Params`]), and a render returns a [`lancer_core::Frame`].
 
+mod choice;
 mod explain;
 mod params;
 mod pattern;
@@ -16,6 +17,7 @@ pub mod shadows;
 mod term;
 pub mod terms;
 
+pub use choice::Choice;
 pub use explain::{HitNode, LightNode, PixelExplanation, RayNode, TermNode, explain_pixel};
 pub use params::{ParamError, ParamSpec, ParamValue, Params};
 pub use pattern::surface_color;

@@ -97,7 +97,7 @@ pub fn render_prepared(
                 let y0 = band as u32 * TILE;
                 for x0 in (0..width).step_by(TILE as usize) {
                     let tile = Tile { x0, y0, w: TILE.min(width - x0), h: TILE.min(height - y0) };
-                    stats += render_tile(&ctx, camera, image, pipeline, tile, scratch, None, options.timing);
+                    render_tile(&ctx, camera, image, pipeline, tile, scratch, None, options.timing, &mut stats);
                     let mut lap = Lap::new(options.timing);
                     // The tile's pixels into the band's rows of every layer.
                     for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
@@ -258,7 +258,8 @@ pub(crate) fn render_tile(
     scratch: &mut Scratch,
     mut recorder: Option<&mut crate::explain::Recorder>,
     timing: bool,
-) -> RenderStats {
+    stats: &mut RenderStats,
+) {
     let pixels = (tile.w * tile.h) as usize;
     let background_layer = pipeline.terms.len();
     for acc in &mut scratch.accum {
@@ -266,11 +267,8 @@ pub(crate) fn render_tile(
         acc.resize(pixels, Vec3::ZERO);
     }
     let shadow_ctx = ShadowContext::new(ctx);
-    let mut stats = RenderStats {
-        spawned: vec![0; pipeline.terms.len()],
-        times: lancer_core::SystemTimes { terms: vec![Default::default(); pipeline.terms.len()], ..Default::default() },
-        ..RenderStats::default()
-    };
+    stats.spawned.resize(pipeline.terms.len(), 0);
+    stats.times.terms.resize(pipeline.terms.len(), Default::default());
     let mut lap = Lap::new(timing);
     let times = &mut stats.times;
     let spp = image.samples.max(1) as usize;
@@ -330,8 +328,7 @@ pub(crate) fn render_tile(
             stats.secondary_rays += scratch.next.len() as u64;
         }
     }
-    stats.shadow_rays = shadow_ctx.rays();
-    stats
+    stats.shadow_rays += shadow_ctx.rays();
 }
 
 /// Generation 0: the camera rays of the tile's pixel samples `range` (pixel-major, in row
@@ -423,7 +420,29 @@ fn background_system(world: &hecs::World, background: Vec3, background_layer: us
 
 #[cfg(test)]
 mod tests {
-    use super::{sample_offset, spread_order};
+    use super::{WAVE, sample_offset, spread_order, waves};
+
+    #[test]
+    fn waves_cover_every_sample_once_and_keep_a_pixels_samples_together() {
+        for (pixels, spp) in [(256, 1), (256, 3), (256, 17), (256, 4096), (7, 5000), (3, 9000), (1, 1)] {
+            let list: Vec<_> = waves(pixels, spp).collect();
+            assert_eq!(list.first().map(|w| w.start), Some(0));
+            assert_eq!(list.last().map(|w| w.end), Some(pixels * spp));
+            for pair in list.windows(2) {
+                assert_eq!(pair[0].end, pair[1].start, "{pixels} x {spp}: contiguous");
+            }
+            for w in &list {
+                assert!(!w.is_empty() && w.len() <= WAVE, "{pixels} x {spp}: {w:?}");
+                if spp <= WAVE {
+                    assert!(w.start % spp == 0 && w.end % spp == 0, "{pixels} x {spp}: {w:?} splits a pixel");
+                } else {
+                    // Cut only at multiples of WAVE from the pixel's first sample.
+                    assert_eq!((w.start % spp) % WAVE, 0, "{pixels} x {spp}: {w:?}");
+                    assert_eq!(w.start / spp, (w.end - 1) / spp, "{pixels} x {spp}: one pixel per wave");
+                }
+            }
+        }
+    }
 
     #[test]
     fn the_band_order_spreads_every_prefix_over_the_image() {

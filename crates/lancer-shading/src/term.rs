@@ -156,6 +156,10 @@ impl TermOutput<'_> {
 /// Implement it in your own crate and register it with [`crate::Registry::register_term`].
 pub trait Term: Send + Sync {
     /// Adds this term's contribution for every lane of `chunk`.
+    ///
+    /// Finish a lane's `add`s before the next lane's (lanes in order, as the built-in terms
+    /// do): a pixel's sums are then made in the same order whatever the chunk size, which keeps
+    /// renders the same for any thread count and `lancer explain`'s values equal to the frame's.
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>);
 
     /// Whether the term reads the light arriving at a surface of this material

@@ -372,20 +372,27 @@ impl Geometry {
         found
     }
 
-    /// Whether object `b` reaches into the solid of object `a` (more than touching it): some
-    /// chord of `a`, among a fixed set of 256 spread through its bounds, meets `b`'s surface
-    /// away from its ends, or has its middle inside `b`. For a scene check, not for rendering:
-    /// a small overlap can be missed. `false` when `a` is unbounded or has no inside.
+    /// Whether object `b` reaches into the solid of object `a` (more than touching it): `b`'s
+    /// centre is inside both, or some chord of `a`, among a fixed set of 256 spread through its
+    /// bounds, meets `b`'s surface away from its ends (beyond their error bounds), or has its
+    /// middle inside `b`. For a scene check, not for rendering: a small overlap can be missed.
+    /// `false` when `a` is unbounded (a plane's half-space) or has no inside.
     pub fn overlap(&self, a: u32, b: u32) -> bool {
         let (oa, ob) = (&self.objects[a as usize], &self.objects[b as usize]);
         let Some(box_a) = oa.bounds() else { return false };
         if !oa.shape.is_closed() {
             return false;
         }
-        if let Some(box_b) = ob.bounds()
-            && (box_b.min.cmpgt(box_a.max).any() || box_a.min.cmpgt(box_b.max).any())
-        {
-            return false;
+        if let Some(box_b) = ob.bounds() {
+            if box_b.min.cmpgt(box_a.max).any() || box_a.min.cmpgt(box_b.max).any() {
+                return false;
+            }
+            // A point inside both: `b`'s centre (a small object wholly inside `a`, which few
+            // chords would meet).
+            let c = box_b.centre();
+            if oa.contains(c) && ob.contains(c) {
+                return true;
+            }
         }
         let (centre, size) = (box_a.centre(), box_a.max - box_a.min);
         let reach = size.length().max(f32::MIN_POSITIVE);
@@ -411,7 +418,10 @@ impl Geometry {
             if length.is_nan() || length <= 0.0 {
                 continue;
             }
-            let margin = 1e-3 * length;
+            // Touching is not reaching in: the ends are only known to their error bounds.
+            let rounding = 16.0 * (entry.error + exit.error)
+                + 4.0 * f32::EPSILON * entry.point.abs().max_element().max(exit.point.abs().max_element());
+            let margin = (1e-3 * length).max(rounding);
             if ob.intersect(entry.point, dir, margin, length - margin).is_some()
                 || ob.contains(entry.point + 0.5 * length * dir)
             {
@@ -595,5 +605,15 @@ mod tests {
         assert!(g.overlap(3, 4) && g.overlap(4, 3));
         assert!(g.overlap(5, 6), "a ball inside another");
         assert!(!g.overlap(1, 3) && !g.overlap(0, 1), "apart; a plane is not a bounded solid");
+        // A tiny ball inside a big one, which few chords would meet.
+        let g = Geometry::new(vec![sphere(0.0, 0.0, 2.0), sphere(0.3, 0.2, 0.05)]);
+        assert!(g.overlap(0, 1));
+        // Far from the origin, resting is still touching.
+        let far = Affine3A::from_translation(Vec3::new(1e4, 0.0, 1e4));
+        let floor = Object::new(Shape::Plane, far, 0).unwrap();
+        let ball = Object::new(Shape::Sphere, far * Affine3A::from_translation(Vec3::Y), 0).unwrap();
+        let cube = Object::new(Shape::Cube, far * Affine3A::from_translation(Vec3::new(3.0, 1.0, 0.0)), 0).unwrap();
+        let g = Geometry::new(vec![floor, ball, cube]);
+        assert!(!g.overlap(1, 0) && !g.overlap(2, 0), "resting on a floor 1e4 away from the origin");
     }
 }
