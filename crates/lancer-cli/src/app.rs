@@ -2,6 +2,7 @@
 //! writing images. [`main_with`] runs it with any registry, so a crate that registers its own
 //! terms gets the whole command line for free.
 
+use std::hash::Hasher;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -48,6 +49,8 @@ enum Command {
     /// Explain one pixel: its ray tree, the light at each hit, every term's inputs and
     /// contribution, and the per-term totals (the values `--aov` writes there).
     Explain(ExplainArgs),
+    /// Put the parts of a render (`render --tile I/N`) back together into its images.
+    Merge(MergeArgs),
     /// List every registered term, its variants and parameters, and every shadow model.
     Terms,
 }
@@ -128,6 +131,32 @@ pub(crate) struct RenderArgs {
     /// Write the render statistics as JSON to FILE.
     #[arg(long, value_name = "FILE")]
     stats_json: Option<PathBuf>,
+    /// Render only part I of N (I from 0): every N-th band of 16 rows from band I, written to
+    /// -o as a part file that `lancer merge` puts back together with the others, bit for bit.
+    #[arg(long, value_name = "I/N", value_parser = crate::part::parse_tile)]
+    tile: Option<(u32, u32)>,
+}
+
+#[derive(Args)]
+struct MergeArgs {
+    /// The part files (from `render --tile I/N`), every part of one render exactly once.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// Beauty image: .png (sRGB 8-bit) or .exr (linear float).
+    #[arg(short, long, default_value = "render.png")]
+    output: PathBuf,
+    /// Also write DIR/<term>.exr and DIR/<term>.png for every term, and DIR/beauty.{exr,png}.
+    #[arg(long, value_name = "DIR")]
+    aov: Option<PathBuf>,
+    /// Which files --aov writes for each image: linear EXR, sRGB PNG, or both.
+    #[arg(long, value_enum, default_value_t = AovFormat::Both)]
+    aov_format: AovFormat,
+    /// Largest part file Lancer will read, in MB.
+    #[arg(long, value_name = "MB", default_value_t = 16 * MAX_FILE_MB, value_parser = clap::value_parser!(u64).range(1..))]
+    max_file_size: u64,
+    /// No summary line.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Args)]
@@ -182,6 +211,7 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
         Some(Command::Check(args)) => check(registry, args),
         Some(Command::Watch(args)) => crate::watch::watch(registry, args),
         Some(Command::Explain(args)) => explain(registry, args),
+        Some(Command::Merge(args)) => merge(args),
         Some(Command::Terms) => {
             print!("{}", crate::listing::terms(registry));
             Ok(())
@@ -191,7 +221,7 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
 
 /// The bytes of the file `path` (a `what`: scene, model, file), if it is a regular file (not a
 /// device, a pipe or a folder, which could be read without end) of at most `limit` MB.
-fn read_bytes(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, String> {
+pub(crate) fn read_bytes(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, String> {
     let meta = std::fs::metadata(path).map_err(|e| format!("reading {what} {}: {e}", path.display()))?;
     if !meta.is_file() {
         return Err(format!("{what} {} is not a regular file", path.display()));
@@ -219,6 +249,9 @@ struct Loaded {
     warnings: Vec<lancer_scene::Warning>,
     /// Where the scene's parts are in its file.
     places: lancer_scene::Places,
+    /// A fingerprint of everything the render depends on (the scene, model and files read,
+    /// the effective model and image settings, Lancer's version): parts of one render share it.
+    identity: u64,
     /// How the scene is named in messages.
     name: String,
     load_time: std::time::Duration,
@@ -240,10 +273,16 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
     };
     // Files a scene refers to (textures) are relative to the scene file's folder.
     let base = args.scene.as_ref().and_then(|p| p.parent()).map(Path::to_path_buf).unwrap_or_default();
+    let fingerprint = std::cell::RefCell::new(fnv::FnvHasher::default());
+    fingerprint.borrow_mut().write(src.as_bytes());
     let resolve = |rel: &str| {
         let path = base.join(rel);
         inputs.borrow_mut().push(path.clone());
-        read_bytes(&path, "file", args.max_file_size)
+        let bytes = read_bytes(&path, "file", args.max_file_size)?;
+        let mut f = fingerprint.borrow_mut();
+        f.write(rel.as_bytes());
+        f.write(&bytes);
+        Ok(bytes)
     };
     let load_start = Instant::now();
     let loaded = lancer_scene::load_scene_with(&src, &name, registry, &resolve).map_err(anyhow::Error::msg)?;
@@ -251,13 +290,12 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
     let (mut scene, warnings, mut places) = (loaded.scene, loaded.warnings, loaded.places);
     places.chosen_terms |= args.terms.is_some() || args.model.is_some();
     let mut pipeline = match &args.model {
-        Some(p) => lancer_scene::load_model_over(
-            &read(p, "model", args.max_file_size)?,
-            &p.display().to_string(),
-            registry,
-            loaded.pipeline,
-        )
-        .map_err(anyhow::Error::msg)?,
+        Some(p) => {
+            let text = read(p, "model", args.max_file_size)?;
+            fingerprint.borrow_mut().write(text.as_bytes());
+            lancer_scene::load_model_over(&text, &p.display().to_string(), registry, loaded.pipeline)
+                .map_err(anyhow::Error::msg)?
+        }
         None => loaded.pipeline,
     };
     if let Some(list) = &args.terms {
@@ -319,7 +357,18 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
             img.height
         );
     }
-    Ok(Loaded { scene, pipeline, warnings, places, name, load_time })
+    let mut f = fingerprint.into_inner();
+    f.write(crate::stats::effective_model(&pipeline, &scene.image).as_bytes());
+    let img = &scene.image;
+    for x in [img.width, img.height, img.samples] {
+        f.write_u32(x);
+    }
+    for c in img.background.to_array() {
+        f.write_u32(c.to_bits());
+    }
+    f.write(env!("CARGO_PKG_VERSION").as_bytes());
+    let identity = f.finish();
+    Ok(Loaded { scene, pipeline, warnings, places, identity, name, load_time })
 }
 
 impl Loaded {
@@ -371,8 +420,12 @@ pub(crate) fn render_recording(
     args: &RenderArgs,
     inputs: &std::cell::RefCell<Vec<PathBuf>>,
 ) -> Result<()> {
-    // Check every output path before the (long) render, so a typo costs nothing.
-    let format = Format::of(&args.output)?;
+    // Check every output path before the (long) render, so a typo costs nothing. A part's
+    // output is a part file whatever its name.
+    let format = if args.tile.is_some() { Format::Exr } else { Format::of(&args.output)? };
+    if args.tile.is_some() && args.aov.is_some() {
+        bail!("with --tile, the per-term images come from the merge: lancer merge PARTS... --aov DIR");
+    }
     let loaded = load_recording(registry, &args.input, inputs)?;
     let (prepared, mut warnings) = loaded.prepare()?;
     if args.aov.is_none() && args.aov_format != AovFormat::default() {
@@ -384,7 +437,16 @@ pub(crate) fn render_recording(
     for w in &warnings {
         eprintln!("{w}");
     }
-    let Loaded { scene, pipeline, name, load_time, .. } = loaded;
+    let Loaded { scene, pipeline, name, load_time, identity, .. } = loaded;
+    if let Some((_, count)) = args.tile {
+        let bands = scene.image.height.div_ceil(lancer_shading::TILE);
+        if count > bands {
+            bail!(
+                "--tile I/{count}: the image has {bands} bands of {} rows, so at most {bands} parts",
+                lancer_shading::TILE
+            );
+        }
+    }
     if let Some(dir) = &args.aov {
         crate::output::create_output_dir(dir).context("creating the AOV directory")?;
     }
@@ -419,7 +481,7 @@ pub(crate) fn render_recording(
             &scene.camera,
             &scene.image,
             &pipeline,
-            RenderOptions { progress: Some(&progress), timing },
+            RenderOptions { progress: Some(&progress), timing, part: args.tile },
         )
     });
     let elapsed = start.elapsed();
@@ -435,9 +497,28 @@ pub(crate) fn render_recording(
     };
     let beauty = frame.beauty();
     pool.install(|| -> Result<()> {
-        format.write(&args.output, frame.width, frame.height, &beauty)?;
+        match args.tile {
+            Some((index, count)) => {
+                let header = crate::part::Header {
+                    identity: format!("{identity:016x}"),
+                    scene: name.clone(),
+                    width: frame.width,
+                    height: frame.height,
+                    samples: scene.image.samples.max(1),
+                    model: crate::stats::effective_model(&pipeline, &scene.image),
+                    index,
+                    count,
+                    band_rows: lancer_shading::TILE,
+                    layers: frame.layers.iter().map(|l| l.name.clone()).collect(),
+                    rays: [frame.stats.camera_rays, frame.stats.secondary_rays, frame.stats.shadow_rays],
+                    seconds: elapsed.as_secs_f64(),
+                };
+                crate::part::write(&args.output, &header, &frame)?;
+            }
+            None => format.write(&args.output, frame.width, frame.height, &beauty)?,
+        }
         if let Some(dir) = &args.aov {
-            write_aovs(dir, &frame, &beauty, args.aov_format, &run)?;
+            write_aovs(dir, &frame, &beauty, args.aov_format, &|files| run.json(files))?;
         }
         if let Some(path) = &args.stats_json {
             crate::output::write_atomic(path, run.json(&[]).as_bytes())
@@ -464,6 +545,42 @@ pub(crate) fn render_recording(
             args.aov.as_ref().map(|d| format!(" and {}/", d.display())).unwrap_or_default(),
             load_time.as_secs_f64(),
             peak_memory().map(|b| format!(", peak memory {:.1} MB", b as f64 / 1e6)).unwrap_or_default()
+        );
+    }
+    Ok(())
+}
+
+fn merge(args: MergeArgs) -> Result<()> {
+    let format = Format::of(&args.output)?;
+    let start = Instant::now();
+    let (frame, seconds, described) = crate::part::merge(&args.parts, args.max_file_size)?;
+    if let Some(dir) = &args.aov {
+        crate::output::create_output_dir(dir).context("creating the AOV directory")?;
+    }
+    let beauty = frame.beauty();
+    format.write(&args.output, frame.width, frame.height, &beauty)?;
+    if let Some(dir) = &args.aov {
+        let manifest = |files: &[String]| {
+            serde_json::to_string_pretty(&serde_json::json!({
+                "generator": crate::stats::GENERATOR,
+                "merged": described,
+                "parts": args.parts.len(),
+                "rays": { "camera": frame.stats.camera_rays, "secondary": frame.stats.secondary_rays, "shadow": frame.stats.shadow_rays },
+                "render_seconds_all_parts": seconds,
+                "files": files,
+            }))
+            .expect("plain data serialises")
+        };
+        write_aovs(dir, &frame, &beauty, args.aov_format, &manifest)?;
+    }
+    if !args.quiet {
+        eprintln!(
+            "merged {} parts of {described} in {:.3} s ({:.3} s of rendering in all) -> {}{}",
+            args.parts.len(),
+            start.elapsed().as_secs_f64(),
+            seconds,
+            args.output.display(),
+            args.aov.as_ref().map(|d| format!(" and {}/", d.display())).unwrap_or_default()
         );
     }
     Ok(())
@@ -514,7 +631,7 @@ fn write_aovs(
     frame: &Frame,
     beauty: &[glam::Vec3],
     which: AovFormat,
-    run: &crate::stats::Run<'_>,
+    manifest: &(dyn Fn(&[String]) -> String + Sync),
 ) -> Result<()> {
     let mut images: Vec<(&str, &[glam::Vec3])> = Vec::new();
     for layer in &frame.layers {
@@ -550,7 +667,7 @@ fn write_aovs(
             let _ = std::fs::remove_file(dir.join(stale));
         }
     }
-    crate::output::write_atomic(&dir.join(MANIFEST), run.json(&files).as_bytes())
+    crate::output::write_atomic(&dir.join(MANIFEST), manifest(&files).as_bytes())
 }
 
 /// The files an earlier render's manifest lists (none if there is no readable manifest).

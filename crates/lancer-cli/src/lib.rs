@@ -6,6 +6,7 @@ mod app;
 mod explain;
 pub mod listing;
 pub mod output;
+mod part;
 mod stats;
 mod watch;
 

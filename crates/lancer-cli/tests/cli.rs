@@ -653,3 +653,79 @@ fn terms_and_shadows_flags_share_one_syntax_and_keep_the_scenes_parameters() {
     assert!(stderr(&o).contains("every light here is a point"), "{}", stderr(&o));
     assert!(!dir.path().join("y.png").exists() || o.status.success());
 }
+
+#[test]
+fn parts_merge_into_the_whole_render_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let read = |p: &str| std::fs::read(dir.path().join(p)).unwrap();
+    for (name, extra) in
+        [("glass.toml", &["--samples", "3"][..]), ("mirrors.toml", &[][..]), ("showcase.toml", &["--samples", "2"][..])]
+    {
+        let path = scene(name);
+        let mut whole = vec!["render", &path, "--width", "120", "-o", "whole.exr", "--aov", "whole", "-q"];
+        whole.extend_from_slice(extra);
+        assert!(lancer(dir.path(), &whole).status.success());
+        for n in [1u32, 2, 3, 5] {
+            let mut parts = Vec::new();
+            for i in 0..n {
+                let (tile, out) = (format!("{i}/{n}"), format!("part{i}.lpart"));
+                let mut args = vec!["render", &path, "--width", "120", "--tile", &tile, "-o", &out, "-q"];
+                args.extend_from_slice(extra);
+                let o = lancer(dir.path(), &args);
+                assert!(o.status.success(), "{}", stderr(&o));
+                parts.push(out);
+            }
+            // In any order.
+            parts.reverse();
+            let mut args = vec!["merge", "-o", "merged.exr", "--aov", "merged", "-q"];
+            args.extend(parts.iter().map(String::as_str));
+            let o = lancer(dir.path(), &args);
+            assert!(o.status.success(), "{}", stderr(&o));
+            assert!(read("merged.exr") == read("whole.exr"), "{name} in {n} parts");
+            for f in files(&dir.path().join("whole")).into_iter().filter(|f| f != "manifest.json") {
+                assert!(read(&format!("merged/{f}")) == read(&format!("whole/{f}")), "{name} in {n} parts: {f}");
+            }
+            assert_eq!(files(&dir.path().join("merged")), files(&dir.path().join("whole")));
+            for p in &parts {
+                std::fs::remove_file(dir.path().join(p)).unwrap();
+            }
+        }
+    }
+}
+
+#[test]
+fn a_missing_duplicated_mismatched_or_broken_part_is_an_error_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let render = |scene_name: &str, tile: &str, out: &str, width: &str| {
+        let o = lancer(dir.path(), &["render", &scene(scene_name), "--width", width, "--tile", tile, "-o", out, "-q"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    render("glass.toml", "0/3", "a0.lpart", "64");
+    render("glass.toml", "1/3", "a1.lpart", "64");
+    render("glass.toml", "2/3", "a2.lpart", "64");
+    render("mirrors.toml", "2/3", "m2.lpart", "64");
+    render("glass.toml", "2/3", "w2.lpart", "80");
+    let bytes = std::fs::read(dir.path().join("a2.lpart")).unwrap();
+    std::fs::write(dir.path().join("cut.lpart"), &bytes[..bytes.len() - 100]).unwrap();
+    std::fs::write(dir.path().join("junk.lpart"), b"hello").unwrap();
+    for (parts, says) in [
+        (&["a0.lpart", "a1.lpart"][..], "part(s) 2 of 3 missing"),
+        (&["a0.lpart", "a1.lpart", "a1.lpart", "a2.lpart"][..], "part 1 of 3 is given twice"),
+        (&["a0.lpart", "a1.lpart", "m2.lpart"][..], "m2.lpart comes from another render (scene"),
+        (&["a0.lpart", "a1.lpart", "w2.lpart"][..], "w2.lpart comes from another render"),
+        (&["a0.lpart", "a1.lpart", "cut.lpart"][..], "cut short?"),
+        (&["a0.lpart", "junk.lpart"][..], "junk.lpart: not a Lancer part file"),
+        (&["a0.lpart", "nope.lpart"][..], "nope.lpart"),
+    ] {
+        let mut args = vec!["merge", "-o", "out.png", "--aov", "aov"];
+        args.extend_from_slice(parts);
+        let o = lancer(dir.path(), &args);
+        assert!(!o.status.success(), "{parts:?}");
+        assert!(stderr(&o).contains(says), "{parts:?}: {}", stderr(&o));
+        assert!(!dir.path().join("out.png").exists() && !dir.path().join("aov").exists(), "{parts:?} wrote something");
+    }
+    for (tile, says) in [("3/3", "I goes from 0 to N - 1"), ("1", "expected I/N"), ("0/40", "at most 3 parts")] {
+        let o = lancer(dir.path(), &["render", &scene("glass.toml"), "--width", "64", "--tile", tile, "-o", "t.lpart"]);
+        assert!(!o.status.success() && stderr(&o).contains(says), "{tile}: {}", stderr(&o));
+    }
+}

@@ -25,6 +25,6 @@ pub use prepare::{PrepareError, Prepared, prepare};
 pub use registry::{
     ModelError, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec, WEIGHT, nearest,
 };
-pub use render::{RenderOptions, WAVE, render, render_prepared};
+pub use render::{RenderOptions, TILE, WAVE, part_bands, render, render_prepared};
 pub use shadow::{ShadowContext, ShadowModel};
 pub use term::{Chunk, Note, NoteValue, ShadeContext, Term, TermOutput, lit_by, mirror_direction, sum_lights};

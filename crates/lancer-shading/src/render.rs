@@ -22,6 +22,17 @@ pub struct RenderOptions<'a> {
     /// Measure the time spent in each system ([`RenderStats::times`]); it costs a clock reading
     /// per system and generation.
     pub timing: bool,
+    /// Render only part `I` of `N` (`Some((I, N))`): the bands of [`TILE`] rows whose index is
+    /// `I` modulo `N` ([`part_bands`]); the rest of the frame stays black. The bands rendered
+    /// are the same bits as in a whole render.
+    pub part: Option<(u32, u32)>,
+}
+
+/// The bands (rows of tiles, [`TILE`] pixels high, from the top) of part `index` of `count` of
+/// an image `height` rows high: every `count`-th band from band `index`, so the parts share out
+/// costly and cheap regions alike.
+pub fn part_bands(height: u32, index: u32, count: u32) -> impl Iterator<Item = u32> {
+    (index..height.div_ceil(TILE)).step_by(count.max(1) as usize)
 }
 
 /// A stopwatch that charges the time since its last reading to a system, when timing is on.
@@ -77,7 +88,6 @@ pub fn render_prepared(
     }
     let band_len = (TILE * width) as usize;
     let bands_count = height.div_ceil(TILE) as usize;
-    let tiles_count = bands_count * width.div_ceil(TILE) as usize;
     let mut per_layer: Vec<_> = layers.iter_mut().map(|l| l.pixels.chunks_mut(band_len)).collect();
     let mut bands: Vec<(usize, Vec<&mut [Vec3]>)> = (0..bands_count)
         .map(|b| (b, per_layer.iter_mut().map(|chunks| chunks.next().expect("one chunk per band")).collect()))
@@ -85,6 +95,10 @@ pub fn render_prepared(
     // Bands in a spread order (each band still writes only its own rows, so the frame is the
     // same): the tiles done at any moment sample the whole image, and the progress estimate
     // does not trust an easy sky for a costly floor.
+    if let Some((index, count)) = options.part {
+        bands.retain(|(b, _)| *b as u32 % count.max(1) == index);
+    }
+    let tiles_count = bands.len() * width.div_ceil(TILE) as usize;
     let order = spread_order(bands_count);
     bands.sort_by_key(|(b, _)| order[*b]);
     let done = std::sync::atomic::AtomicUsize::new(0);
