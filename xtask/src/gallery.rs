@@ -158,12 +158,18 @@ fn render(lancer: &Path, scene: &Path, dir: &Path, args: &[&str], opts: &[(Strin
     Ok(start.elapsed().as_secs_f64())
 }
 
-/// `cargo xtask gallery [--width W] [--samples N] [FILTER]`.
+/// `cargo xtask gallery [--width W] [--samples N] [--shard I/N] [FILTER]`. With `--shard`, only
+/// every N-th render from the I-th is made, and what was made is recorded for `gallery-merge`.
 pub fn build(args: &[String]) -> Result<()> {
-    let TaskArgs { options: opts, filter } = parse_common(args, &["width", "samples"])?;
+    let TaskArgs { options: mut opts, filter } = parse_common(args, &["width", "samples", "shard"])?;
+    let shard = match opts.iter().position(|(k, _)| k == "shard") {
+        Some(i) => Some(parse_shard(&opts.remove(i).1)?),
+        None => None,
+    };
     let lancer = build_renderer()?;
     let out = root().join("target/gallery");
-    if out.exists() {
+    // Shards may be writing the same folder: only a whole build starts afresh.
+    if shard.is_none() && out.exists() {
         std::fs::remove_dir_all(&out).with_context(|| format!("clearing {}", out.display()))?;
     }
     let list = scenes(filter.as_deref())?;
@@ -171,17 +177,24 @@ pub fn build(args: &[String]) -> Result<()> {
     let sheets: Vec<&Sheet> =
         SHEETS.iter().filter(|s| filter.as_deref().is_none_or(|f| s.scene.contains(f) || s.id.contains(f))).collect();
     let jobs = list.len() + sheets.iter().map(|s| s.columns.len()).sum::<usize>();
+    let mine = |job: usize| shard.is_none_or(|(i, n)| job % n == i);
+    let share = (0..jobs).filter(|&j| mine(j)).count();
     let (mut done, mut total_seconds) = (0, 0.0);
     let mut progress = |label: &str, seconds: f64| {
         done += 1;
         total_seconds += seconds;
-        eprintln!("[{done:>2}/{jobs}] {label} ({seconds:.2} s)");
+        eprintln!("[{done:>2}/{share}] {label} ({seconds:.2} s)");
     };
 
     let mut rendered = Vec::new();
+    let mut job = 0;
     for scene in &list {
         let rel =
             scene.strip_prefix(&scenes_dir).unwrap_or(scene).with_extension("").to_string_lossy().replace('\\', "/");
+        job += 1;
+        if !mine(job - 1) {
+            continue;
+        }
         let dir = out.join("scenes").join(&rel);
         let seconds = render(&lancer, scene, &dir, &[], &opts)?;
         progress(&format!("scenes/{rel}.toml"), seconds);
@@ -192,26 +205,146 @@ pub fn build(args: &[String]) -> Result<()> {
         }
         rendered.push(Rendered { rel, title, description, layers, seconds });
     }
+    let mut columns = Vec::new();
     for sheet in &sheets {
         for (label, extra) in sheet.columns {
+            job += 1;
+            if !mine(job - 1) {
+                continue;
+            }
             let dir = out.join("sheets").join(sheet.id).join(slug(label));
             let seconds = render(&lancer, &scenes_dir.join(sheet.scene), &dir, extra, &opts)?;
             progress(&format!("sheet {}: {label}", sheet.id), seconds);
+            columns.push(format!("{}/{}", sheet.id, slug(label)));
         }
     }
 
-    let html = page(&rendered, &sheets, &opts, total_seconds);
+    if let Some((i, n)) = shard {
+        let record = serde_json::json!({
+            "shard": [i, n],
+            "jobs": jobs,
+            "options": opts.iter().map(|(k, v)| [k, v]).collect::<Vec<_>>(),
+            "filter": filter,
+            "seconds": total_seconds,
+            "scenes": rendered.iter().map(|r| serde_json::json!({
+                "rel": r.rel, "title": r.title, "description": r.description, "layers": r.layers, "seconds": r.seconds,
+            })).collect::<Vec<_>>(),
+            "columns": columns,
+        });
+        let file = out.join("shards").join(format!("{i}-of-{n}.json"));
+        std::fs::create_dir_all(file.parent().expect("a folder"))?;
+        std::fs::write(&file, serde_json::to_string_pretty(&record)?).context("writing the shard record")?;
+        eprintln!("shard {i}/{n}: {} renders, {total_seconds:.1} s -> {}", share, file.display());
+        return Ok(());
+    }
+    write_page(&out, &rendered, &sheets, &opts, total_seconds)
+}
+
+/// `I/N` with `0 <= I < N`.
+fn parse_shard(s: &str) -> Result<(usize, usize)> {
+    let parsed = s.split_once('/').and_then(|(i, n)| Some((i.trim().parse().ok()?, n.trim().parse().ok()?)));
+    match parsed {
+        Some((i, n)) if i < n => Ok((i, n)),
+        _ => bail!("--shard expects I/N with I from 0 to N - 1, e.g. 0/4; got `{s}`"),
+    }
+}
+
+fn write_page(
+    out: &Path,
+    rendered: &[Rendered],
+    sheets: &[&Sheet],
+    opts: &[(String, String)],
+    seconds: f64,
+) -> Result<()> {
+    let html = page(rendered, sheets, opts, seconds);
     std::fs::write(out.join("index.html"), html).context("writing index.html")?;
-    let size: u64 = walk_size(&out);
+    let size: u64 = walk_size(out);
     eprintln!(
         "wrote {} ({} scenes, {} sheets, {:.1} MB, {:.1} s of rendering)",
         out.join("index.html").display(),
         rendered.len(),
         sheets.len(),
         size as f64 / 1e6,
-        total_seconds
+        seconds
     );
     Ok(())
+}
+
+/// `cargo xtask gallery-merge`: the page from the records of every shard of one sharded build
+/// (all in `target/gallery/shards/`, their images under `target/gallery/`).
+pub fn merge(args: &[String]) -> Result<()> {
+    if let Some(a) = args.first() {
+        bail!("unexpected argument `{a}`: gallery-merge reads target/gallery/shards/");
+    }
+    let out = root().join("target/gallery");
+    let dir = out.join("shards");
+    let mut records: Vec<serde_json::Value> = Vec::new();
+    for entry in
+        std::fs::read_dir(&dir).with_context(|| format!("reading {} (run gallery --shard first)", dir.display()))?
+    {
+        let p = entry?.path();
+        let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
+        records.push(serde_json::from_str(&text).with_context(|| format!("{} is not a shard record", p.display()))?);
+    }
+    let Some(first) = records.first() else { bail!("no shard records in {}", dir.display()) };
+    let n = first["shard"][1].as_u64().context("a shard record without its count")? as usize;
+    let mut seen = vec![false; n];
+    for r in &records {
+        if r["shard"][1] != first["shard"][1] || r["options"] != first["options"] || r["filter"] != first["filter"] {
+            bail!(
+                "the shard records in {} come from different builds (shard counts, options or filters differ)",
+                dir.display()
+            );
+        }
+        let i = r["shard"][0].as_u64().context("a shard record without its index")? as usize;
+        if i >= n || std::mem::replace(&mut seen[i], true) {
+            bail!("shard {i}/{n} is recorded twice or out of range");
+        }
+    }
+    let missing: Vec<String> = seen.iter().enumerate().filter(|(_, s)| !**s).map(|(i, _)| i.to_string()).collect();
+    if !missing.is_empty() {
+        bail!("shard(s) {} of {n} missing in {}", missing.join(", "), dir.display());
+    }
+    let opts: Vec<(String, String)> = first["options"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|kv| Some((kv[0].as_str()?.to_owned(), kv[1].as_str()?.to_owned())))
+        .collect();
+    let filter = first["filter"].as_str();
+    let text = |v: &serde_json::Value| v.as_str().unwrap_or_default().to_owned();
+    // The scenes in the order a whole build lists them.
+    let order: Vec<String> = scenes(filter)?
+        .iter()
+        .map(|s| {
+            s.strip_prefix(root().join("scenes")).unwrap_or(s).with_extension("").to_string_lossy().replace('\\', "/")
+        })
+        .collect();
+    let mut rendered: Vec<Rendered> = records
+        .iter()
+        .flat_map(|r| r["scenes"].as_array().cloned().unwrap_or_default())
+        .map(|s| Rendered {
+            rel: text(&s["rel"]),
+            title: text(&s["title"]),
+            description: text(&s["description"]),
+            layers: s["layers"].as_array().into_iter().flatten().map(text).collect(),
+            seconds: s["seconds"].as_f64().unwrap_or(0.0),
+        })
+        .collect();
+    rendered.sort_by_key(|r| order.iter().position(|o| *o == r.rel).unwrap_or(usize::MAX));
+    let sheets: Vec<&Sheet> =
+        SHEETS.iter().filter(|s| filter.is_none_or(|f| s.scene.contains(f) || s.id.contains(f))).collect();
+    let columns: usize = records.iter().map(|r| r["columns"].as_array().map_or(0, Vec::len)).sum();
+    let want = sheets.iter().map(|s| s.columns.len()).sum::<usize>();
+    if rendered.len() != order.len() || columns != want {
+        bail!(
+            "the shards rendered {} scenes and {columns} sheet columns where the build has {} and {want}",
+            rendered.len(),
+            order.len()
+        );
+    }
+    let seconds: f64 = records.iter().map(|r| r["seconds"].as_f64().unwrap_or(0.0)).sum();
+    write_page(&out, &rendered, &sheets, &opts, seconds)
 }
 
 fn walk_size(dir: &Path) -> u64 {

@@ -20,9 +20,12 @@ tasks:
             mutate the scenes in scenes/ (lines, numbers, junk tokens and tables) and load, prepare
             and render each in-process; any panic, hang, unlocated error or NaN is written to
             target/fuzz/ (default 2000 runs, seed 1)
-  gallery [--width W] [--samples N] [FILTER]
+  gallery [--width W] [--samples N] [--shard I/N] [FILTER]
             render every scene in scenes/ (or those whose path contains FILTER) with its per-term
-            images, and the comparison sheets, into target/gallery/index.html
+            images, and the comparison sheets, into target/gallery/index.html; with --shard, only
+            every N-th render from the I-th (for several machines), recorded for gallery-merge
+  gallery-merge
+            the page from every shard's record in target/gallery/shards/
   gallery-check [--screenshot FILE]
             open target/gallery/index.html in headless Chromium; fail if any image did not load;
             save a screenshot (default target/gallery/screenshot.png)
@@ -47,6 +50,7 @@ fn run(args: Vec<String>) -> Result<()> {
         Some("fuzz") => fuzz::run(&args[1..]),
         Some("gallery") => gallery::build(&args[1..]),
         Some("gallery-check") => gallery::check(&args[1..]),
+        Some("gallery-merge") => gallery::merge(&args[1..]),
         Some("renders") => renders(&args[1..]),
         Some("-h" | "--help") | None => {
             println!("{USAGE}");
