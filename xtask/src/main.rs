@@ -2,6 +2,7 @@
 //! check in a real browser) and plain per-scene renders.
 
 mod bench;
+mod compare;
 mod fuzz;
 mod gallery;
 
@@ -16,6 +17,11 @@ tasks:
   bench [--runs N]
             Lancer against POV-Ray 3.7 (when installed) on scenes/bench/anchor, 1 and 2 threads;
             and render cost against the number of objects
+  compare [--width W] [--min-psnr DB] SCENE... [-- LANCER FLAGS]
+            export each scene for POV-Ray 3.7 (with the flags, e.g. --terms), render it with both, and write both images, their
+            difference and a page to target/compare/<scene>/; prints PSNR and the share of
+            pixels that differ visibly, failing below --min-psnr (says so and stops when POV-Ray
+            is not installed)
   fuzz [--runs N] [--seed S]
             mutate the scenes in scenes/ (lines, numbers, junk tokens and tables) and load, prepare
             and render each in-process; any panic, hang, unlocated error or NaN is written to
@@ -47,6 +53,7 @@ pub fn root() -> PathBuf {
 fn run(args: Vec<String>) -> Result<()> {
     match args.first().map(String::as_str) {
         Some("bench") => bench::run(&args[1..]),
+        Some("compare") => compare::run(&args[1..]),
         Some("fuzz") => fuzz::run(&args[1..]),
         Some("gallery") => gallery::build(&args[1..]),
         Some("gallery-check") => gallery::check(&args[1..]),

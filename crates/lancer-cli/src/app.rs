@@ -51,6 +51,8 @@ enum Command {
     Explain(ExplainArgs),
     /// Put the parts of a render (`render --tile I/N`) back together into its images.
     Merge(MergeArgs),
+    /// Write the scene for another renderer: `lancer export pov SCENE -o OUT.pov` (POV-Ray 3.7).
+    Export(ExportArgs),
     /// List every registered term, its variants and parameters, and every shadow model.
     Terms,
 }
@@ -137,6 +139,24 @@ pub(crate) struct RenderArgs {
     tile: Option<(u32, u32)>,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum ExportFormat {
+    /// POV-Ray 3.7 scene language.
+    Pov,
+}
+
+#[derive(Args)]
+struct ExportArgs {
+    /// The format to write.
+    #[arg(value_enum)]
+    format: ExportFormat,
+    #[command(flatten)]
+    input: SceneArgs,
+    /// The file to write (image textures are written beside it).
+    #[arg(short, long, default_value = "scene.pov")]
+    output: PathBuf,
+}
+
 #[derive(Args)]
 struct MergeArgs {
     /// The part files (from `render --tile I/N`), every part of one render exactly once.
@@ -212,6 +232,7 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
         Some(Command::Watch(args)) => crate::watch::watch(registry, args),
         Some(Command::Explain(args)) => explain(registry, args),
         Some(Command::Merge(args)) => merge(args),
+        Some(Command::Export(args)) => export(registry, args),
         Some(Command::Terms) => {
             print!("{}", crate::listing::terms(registry));
             Ok(())
@@ -547,6 +568,39 @@ pub(crate) fn render_recording(
             peak_memory().map(|b| format!(", peak memory {:.1} MB", b as f64 / 1e6)).unwrap_or_default()
         );
     }
+    Ok(())
+}
+
+fn export(registry: &Registry, args: ExportArgs) -> Result<()> {
+    let ExportFormat::Pov = args.format;
+    let loaded = load(registry, &args.input)?;
+    let (prepared, _) = loaded.prepare()?;
+    let stem = args.output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+    let e = crate::pov::export(
+        &prepared,
+        &loaded.scene.camera,
+        &loaded.scene.image,
+        &loaded.pipeline,
+        &loaded.scene.textures,
+        &format!("{stem}-texture"),
+    );
+    let folder = args.output.parent().filter(|p| !p.as_os_str().is_empty()).map(Path::to_path_buf).unwrap_or_default();
+    for (name, k) in &e.textures {
+        let t = &loaded.scene.textures[*k];
+        let png = crate::output::encode_png(t.width, t.height, &t.pixels)?;
+        crate::output::write_atomic(&folder.join(name), &png).with_context(|| format!("writing {name}"))?;
+    }
+    crate::output::write_atomic(&args.output, e.text.as_bytes())
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    for n in &e.notes {
+        eprintln!("warning: POV-Ray: {n}");
+    }
+    eprintln!(
+        "exported {} for POV-Ray 3.7 -> {}{}",
+        loaded.name,
+        args.output.display(),
+        if e.textures.is_empty() { String::new() } else { format!(" (+ {} image maps)", e.textures.len()) }
+    );
     Ok(())
 }
 

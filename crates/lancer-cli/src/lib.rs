@@ -7,6 +7,7 @@ mod explain;
 pub mod listing;
 pub mod output;
 mod part;
+mod pov;
 mod stats;
 mod watch;
 

@@ -729,3 +729,34 @@ fn a_missing_duplicated_mismatched_or_broken_part_is_an_error_and_nothing_is_wri
         assert!(!o.status.success() && stderr(&o).contains(says), "{tile}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn export_pov_writes_the_handouts_mapping_and_lists_what_povray_cannot_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = lancer(dir.path(), &["export", "pov", &scene("bench/anchor.toml"), "-o", "anchor.pov"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pov = std::fs::read_to_string(dir.path().join("anchor.pov")).unwrap();
+    // The mirror ball: spec 0.8, shine 0.9875 → phong 0.79, phong_size 80, reflection 0.8.
+    assert!(pov.contains("phong 0.79 phong_size 80.00") || pov.contains("phong 0.79 phong_size 79.99"), "{pov}");
+    // The glass: alpha 0.9 → transmit 0.9, diffuse 0.05 / (1 - 0.9) = 0.5, ior 1.5.
+    assert!(pov.contains("rgbt <1, 1, 1, 0.9>") && pov.contains("interior { ior 1.5 }"), "{pov}");
+    assert!(pov.contains("right -x*1.7777778") && pov.contains("max_trace_level 5"), "{pov}");
+    for shape in ["plane {", "sphere {", "box {", "cylinder {", "cone {", "torus {"] {
+        assert!(pov.contains(shape), "{shape}");
+    }
+    assert!(pov.contains("// Everything in the scene has a POV-Ray counterpart."));
+    // A variant POV-Ray does not have: said in the file and on stderr.
+    let o = lancer(dir.path(), &["export", "pov", &scene("variants/schlick.toml"), "-o", "s.pov"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pov = std::fs::read_to_string(dir.path().join("s.pov")).unwrap();
+    assert!(
+        pov.contains("// Not expressible in POV-Ray")
+            && pov.contains("`mirror:schlick` is written as the handout's `mirror`"),
+        "{pov}"
+    );
+    assert!(stderr(&o).contains("warning: POV-Ray: `mirror:schlick`"), "{}", stderr(&o));
+    // Image maps go beside the file.
+    let o = lancer(dir.path(), &["export", "pov", &scene("patterns.toml"), "-o", "p.pov"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.path().join("p-texture-0.png").exists() && dir.path().join("p-texture-1.png").exists());
+}

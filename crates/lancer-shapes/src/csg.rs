@@ -82,6 +82,16 @@ pub struct Csg {
 }
 
 impl Csg {
+    /// The nodes, operands before the nodes that use them.
+    pub fn nodes(&self) -> &[CsgNode] {
+        &self.nodes
+    }
+
+    /// The root node's index.
+    pub fn root(&self) -> u32 {
+        self.root
+    }
+
     /// A tree from its nodes (operands before the nodes that use them) and its root. `None` if a
     /// leaf's transform is singular or an index is out of range.
     pub fn new(nodes: Vec<CsgNode>, root: u32) -> Option<Csg> {

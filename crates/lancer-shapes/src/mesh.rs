@@ -163,6 +163,26 @@ impl Mesh {
         Ok(Mesh { bvh, positions, normals, uvs, triangles, bounds, closed })
     }
 
+    /// Vertex positions.
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// Per-vertex normals (empty for a flat mesh).
+    pub fn normals(&self) -> &[Vec3] {
+        &self.normals
+    }
+
+    /// Per-vertex texture coordinates (empty when the file has none).
+    pub fn uvs(&self) -> &[Vec2] {
+        &self.uvs
+    }
+
+    /// Triangles as vertex indices (in the BVH's leaf order, each wound outward on a closed mesh).
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
