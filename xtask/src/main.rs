@@ -5,6 +5,7 @@ mod bench;
 mod compare;
 mod fuzz;
 mod gallery;
+mod studio;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -30,6 +31,9 @@ tasks:
             render every scene in scenes/ (or those whose path contains FILTER) with its per-term
             images, and the comparison sheets, into target/gallery/index.html; with --shard, only
             every N-th render from the I-th (for several machines), recorded for gallery-merge
+  studio-check [--screenshot FILE]
+            lancer serve in Chromium through chromedriver: sliders, switches, variants, the
+            inspector and a broken save, each checked; a screenshot (default docs/studio.png)
   gallery-merge
             the page from every shard's record in target/gallery/shards/
   gallery-check [--screenshot FILE]
@@ -58,6 +62,7 @@ fn run(args: Vec<String>) -> Result<()> {
         Some("gallery") => gallery::build(&args[1..]),
         Some("gallery-check") => gallery::check(&args[1..]),
         Some("gallery-merge") => gallery::merge(&args[1..]),
+        Some("studio-check") => studio::check(&args[1..]),
         Some("renders") => renders(&args[1..]),
         Some("-h" | "--help") | None => {
             println!("{USAGE}");

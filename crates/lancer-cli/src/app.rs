@@ -51,6 +51,9 @@ enum Command {
     Explain(ExplainArgs),
     /// Put the parts of a render (`render --tile I/N`) back together into its images.
     Merge(MergeArgs),
+    /// A local web studio: sliders for the materials, the lights and the model, live per-term
+    /// images, a pixel inspector (the embedded showcase without a SCENE).
+    Serve(ServeArgs),
     /// Write the scene for another renderer: `lancer export pov SCENE -o OUT.pov` (POV-Ray 3.7).
     Export(ExportArgs),
     /// List every registered term, its variants and parameters, and every shadow model.
@@ -137,6 +140,21 @@ pub(crate) struct RenderArgs {
     /// -o as a part file that `lancer merge` puts back together with the others, bit for bit.
     #[arg(long, value_name = "I/N", value_parser = crate::part::parse_tile)]
     tile: Option<(u32, u32)>,
+}
+
+#[derive(Args)]
+struct ServeArgs {
+    #[command(flatten)]
+    input: SceneArgs,
+    /// The port to listen on (0: any free one; the printed address says which).
+    #[arg(long, default_value_t = 8470)]
+    port: u16,
+    /// Do not open the page in a browser.
+    #[arg(long)]
+    no_open: bool,
+    /// The address to listen on; anything but 127.0.0.1 exposes the studio to the network.
+    #[arg(long, default_value = "127.0.0.1")]
+    host: std::net::IpAddr,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -233,6 +251,7 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
         Some(Command::Explain(args)) => explain(registry, args),
         Some(Command::Merge(args)) => merge(args),
         Some(Command::Export(args)) => export(registry, args),
+        Some(Command::Serve(args)) => serve(registry, args),
         Some(Command::Terms) => {
             print!("{}", crate::listing::terms(registry));
             Ok(())
@@ -502,7 +521,7 @@ pub(crate) fn render_recording(
             &scene.camera,
             &scene.image,
             &pipeline,
-            RenderOptions { progress: Some(&progress), timing, part: args.tile },
+            RenderOptions { progress: Some(&progress), timing, part: args.tile, cancel: None },
         )
     });
     let elapsed = start.elapsed();
@@ -569,6 +588,35 @@ pub(crate) fn render_recording(
         );
     }
     Ok(())
+}
+
+fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
+    if !args.host.is_loopback() {
+        eprintln!(
+            "warning: listening on {}: anyone who can reach this machine and learns the token can use the studio",
+            args.host
+        );
+    }
+    let input = args.input.clone();
+    let reg = registry.clone();
+    let loader: lancer_studio::Loader = std::sync::Arc::new(move || {
+        let inputs = std::cell::RefCell::new(Vec::new());
+        let loaded = load_recording(&reg, &input, &inputs).map_err(|e| format!("{e:#}"))?;
+        let (_, warnings) = loaded.prepare().map_err(|e| format!("{e:#}"))?;
+        Ok(lancer_studio::Loaded {
+            labels: loaded.places.materials.clone(),
+            warnings: warnings.iter().map(|w| w.to_string()).collect(),
+            inputs: inputs.into_inner(),
+            name: loaded.name,
+            scene: loaded.scene,
+            pipeline: loaded.pipeline,
+        })
+    });
+    let explainer: lancer_studio::Explainer = std::sync::Arc::new(|e, scene, image, pipeline| {
+        crate::explain::Report { scene, image, pipeline, explanation: e }.json()
+    });
+    let options = lancer_studio::Options { host: args.host, port: args.port, open: !args.no_open };
+    lancer_studio::serve(registry.clone(), loader, explainer, options)
 }
 
 fn export(registry: &Registry, args: ExportArgs) -> Result<()> {

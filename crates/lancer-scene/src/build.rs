@@ -37,6 +37,9 @@ pub struct Places {
     pub lights: Vec<Place>,
     /// The `[camera]` table.
     pub camera: Option<Place>,
+    /// A name for each material in the prepared table's order: `[materials.NAME]`'s name, or
+    /// `object N` for an object's inline material (the default material, last, is not listed).
+    pub materials: Vec<String>,
     /// Whether the model's terms were chosen (a `terms` list in the scene, or on the command
     /// line) rather than left to the default: only chosen terms are worth a warning when they
     /// have nothing to act on.
@@ -157,6 +160,7 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
     for (name, m) in &doc.materials {
         let m = material(&cx, m, &mut textures, &mut warnings)?;
         named.insert(name, world.spawn((m,)));
+        places.materials.push(name.clone());
     }
     for l in &doc.lights {
         places.lights.push(cx.place(l.span()));
@@ -204,6 +208,7 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
             None => None,
             Some((_, MaterialRef::Inline(m))) => {
                 let m = material(&cx, m, &mut textures, &mut warnings)?;
+                places.materials.push(format!("object {}", places.objects.len()));
                 Some(world.spawn((m,)))
             }
             Some((span, MaterialRef::Named(name))) => Some(

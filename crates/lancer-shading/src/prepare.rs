@@ -7,6 +7,7 @@ use lancer_core::{Light, Material, MaterialOf, Scene, Transform};
 use lancer_shapes::{Geometry, Object, Shape};
 
 /// The scene as the render loop reads it.
+#[derive(Clone)]
 pub struct Prepared {
     /// Objects and their BVH.
     pub geometry: Geometry,

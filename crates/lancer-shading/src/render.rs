@@ -26,6 +26,9 @@ pub struct RenderOptions<'a> {
     /// `I` modulo `N` ([`part_bands`]); the rest of the frame stays black. The bands rendered
     /// are the same bits as in a whole render.
     pub part: Option<(u32, u32)>,
+    /// Checked before each tile: once it is set the remaining tiles are skipped (the frame is
+    /// then incomplete; the caller that set it throws it away).
+    pub cancel: Option<&'a std::sync::atomic::AtomicBool>,
 }
 
 /// The bands (rows of tiles, [`TILE`] pixels high, from the top) of part `index` of `count` of
@@ -110,6 +113,9 @@ pub fn render_prepared(
                 let mut stats = RenderStats::default();
                 let y0 = band as u32 * TILE;
                 for x0 in (0..width).step_by(TILE as usize) {
+                    if options.cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {
+                        break;
+                    }
                     let tile = Tile { x0, y0, w: TILE.min(width - x0), h: TILE.min(height - y0) };
                     render_tile(&ctx, camera, image, pipeline, tile, scratch, None, options.timing, &mut stats);
                     let mut lap = Lap::new(options.timing);

@@ -1,0 +1,112 @@
+//! `lancer serve`: a local web studio. One page (embedded: no CDN, no network) shows the beauty
+//! image and every term's image, with sliders for the materials, the lights and the model; each
+//! edit renders a coarse image at once, then the full one, and a newer edit cancels the render
+//! in progress. A pixel click explains the pixel. The scene file is watched.
+//!
+//! The server binds 127.0.0.1 by default, answers only to a localhost Host, wants a per-run token
+//! (from the launch URL, then a `SameSite=Strict` cookie), checks the Origin of the WebSocket
+//! upgrade, limits request bodies and messages, and reads no path a client names.
+
+mod security;
+mod state;
+mod worker;
+
+use std::net::{IpAddr, SocketAddr};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::{Context, Result};
+use lancer_core::{Camera, ImageSettings, Scene};
+use lancer_shading::{Pipeline, PixelExplanation, Prepared, Registry};
+
+pub use state::State;
+
+/// A scene as the studio needs it, loaded afresh from its files by the [`Loader`].
+pub struct Loaded {
+    /// The scene.
+    pub scene: Scene,
+    /// Its model (with the command line's changes).
+    pub pipeline: Pipeline,
+    /// A name for each prepared material, in order.
+    pub labels: Vec<String>,
+    /// What loading and checking warn about, one line each.
+    pub warnings: Vec<String>,
+    /// Every file read (scene, model, meshes, textures): what the studio watches.
+    pub inputs: Vec<PathBuf>,
+    /// How the scene is named.
+    pub name: String,
+}
+
+/// Loads the scene from its files (the same way each time): an error is the located message.
+pub type Loader = Arc<dyn Fn() -> std::result::Result<Loaded, String> + Send + Sync>;
+
+/// Turns an explained pixel into the JSON the page shows (the CLI's `explain --json`).
+pub type Explainer = Arc<dyn Fn(&PixelExplanation, &str, &ImageSettings, &Pipeline) -> String + Send + Sync>;
+
+/// How to serve.
+pub struct Options {
+    /// The address to bind (127.0.0.1 unless `--host`).
+    pub host: IpAddr,
+    /// The port (0: any free one).
+    pub port: u16,
+    /// Open the page in the default browser.
+    pub open: bool,
+}
+
+/// What renders use besides the state: fixed for a loaded scene.
+pub(crate) struct SceneSlot {
+    pub prepared: Prepared,
+    pub camera: Camera,
+    pub image: ImageSettings,
+    pub name: String,
+    pub warnings: Vec<String>,
+    pub inputs: Vec<PathBuf>,
+    /// The state as the file has it.
+    pub loaded: State,
+}
+
+impl SceneSlot {
+    pub(crate) fn new(l: Loaded) -> Result<SceneSlot, String> {
+        let prepared = lancer_shading::prepare(&l.scene).map_err(|e| format!("preparing {}: {e}", l.name))?;
+        let loaded = State::of(&prepared, &l.pipeline, &l.labels, l.scene.image.samples.clamp(1, 256));
+        Ok(SceneSlot {
+            prepared,
+            camera: l.scene.camera,
+            image: l.scene.image,
+            name: l.name,
+            warnings: l.warnings,
+            inputs: l.inputs,
+            loaded,
+        })
+    }
+}
+
+/// Serves the studio until the process is stopped (Ctrl-C). Prints the page's address (with its
+/// token) on stdout and opens it unless told not to. A scene that does not load at the start is
+/// an error; later, a broken save shows its error on the page and keeps the last image.
+pub fn serve(registry: Registry, loader: Loader, explainer: Explainer, options: Options) -> Result<()> {
+    let first = loader().map_err(anyhow::Error::msg)?;
+    let slot = SceneSlot::new(first).map_err(anyhow::Error::msg)?;
+    let token = security::new_token()?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting the server's runtime")?;
+    runtime.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(SocketAddr::new(options.host, options.port))
+            .await
+            .with_context(|| format!("listening on {}:{}", options.host, options.port))?;
+        let port = listener.local_addr()?.port();
+        let shared = worker::start(registry, slot, loader, explainer)?;
+        let app = security::router(shared, token.clone(), options.host, port);
+        let shown = if options.host.is_loopback() { "127.0.0.1".to_owned() } else { options.host.to_string() };
+        let url = format!("http://{shown}:{port}/?token={token}");
+        println!("Lancer studio: {url}");
+        if options.open {
+            // No browser is not an error: the address is printed.
+            let _ = webbrowser::open(&url);
+        }
+        axum::serve(listener, app).await.context("serving")
+    })
+}

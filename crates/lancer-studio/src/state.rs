@@ -1,0 +1,245 @@
+//! What the page edits: the materials, the lights and the model, as JSON both ways, and how an
+//! edited state becomes a prepared scene and a pipeline to render.
+
+use glam::Vec3;
+use lancer_shading::{ParamValue, Params, Pipeline, Prepared, Registry};
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+/// One material's numbers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaterialState {
+    /// Its name in the scene (`[materials.NAME]`, or `object N` for an inline one).
+    pub label: String,
+    /// `Col_Ω` (the first colour of a pattern).
+    pub color: [f32; 3],
+    /// Ambient factor.
+    pub ambi: f32,
+    /// Diffuse factor.
+    pub diff: f32,
+    /// Specular factor (highlight and mirror).
+    pub spec: f32,
+    /// Shininess.
+    pub shine: f32,
+    /// Transparency.
+    pub alpha: f32,
+    /// Refractive index.
+    pub n: f32,
+}
+
+/// One light.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LightState {
+    /// Position.
+    pub at: [f32; 3],
+    /// `Col_L` before intensity.
+    pub color: [f32; 3],
+    /// Scales the colour.
+    pub intensity: f32,
+}
+
+/// One term of the model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TermState {
+    /// The term's name.
+    pub name: String,
+    /// Its variant.
+    pub variant: String,
+    /// Switched off terms keep their place and parameters but are not rendered.
+    pub enabled: bool,
+    /// Its parameters as given (the others have their defaults).
+    pub params: Map<String, Value>,
+}
+
+/// The shadow model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ShadowState {
+    /// The shadow model's name.
+    pub name: String,
+    /// Its parameters as given.
+    pub params: Map<String, Value>,
+}
+
+/// The lighting model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelState {
+    /// The terms in summation order.
+    pub terms: Vec<TermState>,
+    /// The shadow model.
+    pub shadows: ShadowState,
+    /// The recursion limit.
+    pub max_depth: u8,
+    /// Samples per pixel of the full image (the coarse one takes one).
+    pub samples: u32,
+}
+
+/// Everything the page can change.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct State {
+    /// The materials, in the prepared table's order.
+    pub materials: Vec<MaterialState>,
+    /// The lights, in scene order.
+    pub lights: Vec<LightState>,
+    /// The model.
+    pub model: ModelState,
+}
+
+fn params_json(params: &[(String, ParamValue)]) -> Map<String, Value> {
+    params
+        .iter()
+        .map(|(k, v)| {
+            let v = match v {
+                ParamValue::Number(x) => serde_json::json!(x),
+                ParamValue::Bool(b) => Value::Bool(*b),
+                ParamValue::Text(t) => Value::String(t.clone()),
+            };
+            (k.clone(), v)
+        })
+        .collect()
+}
+
+fn params_of(map: &Map<String, Value>) -> Result<Params, String> {
+    let mut out = Vec::new();
+    for (k, v) in map {
+        let value = match v {
+            Value::Number(n) => ParamValue::Number(n.as_f64().ok_or_else(|| format!("`{k}`: not a number"))?),
+            Value::Bool(b) => ParamValue::Bool(*b),
+            Value::String(s) => ParamValue::Text(s.clone()),
+            _ => return Err(format!("`{k}`: expected a number, a boolean or text")),
+        };
+        out.push((k.clone(), value));
+    }
+    Ok(Params::new(out))
+}
+
+impl State {
+    /// The state of a freshly loaded scene: `labels` names the prepared materials in order.
+    pub fn of(prepared: &Prepared, pipeline: &Pipeline, labels: &[String], samples: u32) -> State {
+        // The prepared table ends with the default material for objects that name none.
+        let named = prepared.materials.len().saturating_sub(1);
+        let materials = prepared.materials[..named]
+            .iter()
+            .enumerate()
+            .map(|(i, m)| MaterialState {
+                label: labels.get(i).cloned().unwrap_or_else(|| format!("material {}", i + 1)),
+                color: m.color.to_array(),
+                ambi: m.ambi,
+                diff: m.diff,
+                spec: m.spec,
+                shine: m.shine,
+                alpha: m.alpha,
+                n: m.n,
+            })
+            .collect();
+        let lights = prepared
+            .lights
+            .iter()
+            .map(|l| LightState { at: l.at.to_array(), color: l.color.to_array(), intensity: l.intensity })
+            .collect();
+        let terms = pipeline
+            .terms
+            .iter()
+            .map(|t| TermState {
+                name: t.name.clone(),
+                variant: t.variant.clone(),
+                enabled: true,
+                params: params_json(&t.params),
+            })
+            .collect();
+        let shadows =
+            ShadowState { name: pipeline.shadows.name.clone(), params: params_json(&pipeline.shadows.params) };
+        State { materials, lights, model: ModelState { terms, shadows, max_depth: pipeline.max_depth, samples } }
+    }
+
+    /// Writes the materials and lights into `prepared` (whose geometry stays) and builds the
+    /// pipeline; an error names what is wrong (an unknown variant, a parameter out of range).
+    pub fn apply(&self, prepared: &mut Prepared, registry: &Registry) -> Result<Pipeline, String> {
+        if self.materials.len() + 1 != prepared.materials.len() || self.lights.len() != prepared.lights.len() {
+            return Err("the edit does not match the scene (reloaded meanwhile?)".into());
+        }
+        let unit = |x: f32, what: &str| {
+            if (0.0..=1.0).contains(&x) { Ok(x) } else { Err(format!("{what} must be in [0, 1], not {x}")) }
+        };
+        for (m, s) in prepared.materials.iter_mut().zip(&self.materials) {
+            let colour = Vec3::from(s.color);
+            if !colour.is_finite() || colour.min_element() < 0.0 || colour.max_element() > 1000.0 {
+                return Err(format!("{}: colour channels must be in [0, 1000]", s.label));
+            }
+            m.color = colour;
+            m.ambi = unit(s.ambi, "ambi")?;
+            m.diff = unit(s.diff, "diff")?;
+            m.spec = unit(s.spec, "spec")?;
+            m.shine = unit(s.shine, "shine")?;
+            m.alpha = unit(s.alpha, "alpha")?;
+            if !(1.0..=2.5).contains(&s.n) {
+                return Err(format!("n must be in [1, 2.5], not {}", s.n));
+            }
+            m.n = s.n;
+        }
+        for (l, s) in prepared.lights.iter_mut().zip(&self.lights) {
+            let (at, colour) = (Vec3::from(s.at), Vec3::from(s.color));
+            if !at.is_finite() || at.abs().max_element() > 1e6 {
+                return Err("a light's position must be finite, within 1e6".into());
+            }
+            if !colour.is_finite() || colour.min_element() < 0.0 || colour.max_element() > 1000.0 {
+                return Err("a light's colour channels must be in [0, 1000]".into());
+            }
+            if !(0.0..=1e6).contains(&s.intensity) {
+                return Err("a light's intensity must be in [0, 1e6]".into());
+            }
+            (l.at, l.color, l.intensity) = (at, colour, s.intensity);
+        }
+        let model = &self.model;
+        if model.max_depth > 64 {
+            return Err("max_depth goes to 64".into());
+        }
+        if !(1..=256).contains(&model.samples) {
+            return Err("samples go from 1 to 256 in the studio".into());
+        }
+        let mut terms = Vec::new();
+        for t in model.terms.iter().filter(|t| t.enabled) {
+            terms.push(
+                registry
+                    .build_term(&t.name, Some(&t.variant), params_of(&t.params)?)
+                    .map_err(|e| format!("term `{}`: {e}", t.name))?,
+            );
+        }
+        let shadows = registry
+            .build_shadow(&model.shadows.name, params_of(&model.shadows.params)?)
+            .map_err(|e| format!("shadows: {e}"))?;
+        Pipeline::new(model.max_depth, shadows, terms).map_err(|e| e.to_string())
+    }
+}
+
+/// The registry as the page lists it: every term with its variants and parameters, every
+/// shadow model.
+pub fn registry_json(registry: &Registry) -> Value {
+    let mut terms: Vec<Value> = Vec::new();
+    for name in registry.term_names() {
+        let variants: Vec<Value> = registry
+            .terms()
+            .iter()
+            .filter(|t| t.name == name)
+            .map(|t| {
+                serde_json::json!({
+                    "variant": t.variant,
+                    "summary": t.summary,
+                    "params": t.params.iter().map(|p| serde_json::json!({"name": p.name, "default": p.default, "doc": p.doc})).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        terms.push(serde_json::json!({ "name": name, "variants": variants }));
+    }
+    let shadows: Vec<Value> = registry
+        .shadows()
+        .iter()
+        .map(|s| {
+            serde_json::json!({
+                "name": s.name,
+                "summary": s.summary,
+                "params": s.params.iter().map(|p| serde_json::json!({"name": p.name, "default": p.default, "doc": p.doc})).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    serde_json::json!({ "terms": terms, "shadows": shadows })
+}
