@@ -760,3 +760,256 @@ fn export_pov_writes_the_handouts_mapping_and_lists_what_povray_cannot_do() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(dir.path().join("p-texture-0.png").exists() && dir.path().join("p-texture-1.png").exists());
 }
+
+/// A running `lancer serve`, killed when dropped.
+struct Studio {
+    child: std::process::Child,
+    port: u16,
+    token: String,
+}
+
+impl Drop for Studio {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn studio(dir: &Path, extra: &[&str]) -> Studio {
+    use std::io::BufRead;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lancer"))
+        .args(["serve", "--no-open", "--port", "0", "--width", "96"])
+        .args(extra)
+        .current_dir(dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("lancer serve runs");
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let url = line.trim().strip_prefix("Lancer studio: ").unwrap_or_else(|| panic!("printed `{line}`")).to_owned();
+    assert!(url.starts_with("http://127.0.0.1:"), "binds 127.0.0.1 by default: {url}");
+    let port = url["http://127.0.0.1:".len()..].split('/').next().unwrap().parse().unwrap();
+    let token = url.rsplit("token=").next().unwrap().to_owned();
+    Studio { child, port, token }
+}
+
+/// One raw HTTP/1.1 request; the status line and headers.
+fn http(port: u16, request: &str) -> String {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    s.set_read_timeout(Some(std::time::Duration::from_secs(5))).unwrap();
+    s.write_all(request.as_bytes()).unwrap();
+    let mut out = Vec::new();
+    let mut buf = [0u8; 4096];
+    while let Ok(n) = s.read(&mut buf) {
+        if n == 0 {
+            break;
+        }
+        out.extend_from_slice(&buf[..n]);
+        if out.windows(4).any(|w| w == b"\r\n\r\n") && !request.contains("Upgrade") {
+            break;
+        }
+        if request.contains("Upgrade") && out.windows(4).any(|w| w == b"\r\n\r\n") {
+            break;
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+#[test]
+fn the_studio_answers_only_localhost_with_its_token_and_origin() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = studio(dir.path(), &[]);
+    let (p, t) = (s.port, s.token.clone());
+    let get = |path: &str, host: &str, cookie: Option<&str>| {
+        let cookie = cookie.map(|c| format!("Cookie: lancer_token={c}\r\n")).unwrap_or_default();
+        http(p, &format!("GET {path} HTTP/1.1\r\nHost: {host}\r\n{cookie}Connection: close\r\n\r\n"))
+    };
+    let local = format!("127.0.0.1:{p}");
+    // DNS rebinding: another Host is refused, whatever else the request holds.
+    assert!(get("/", &format!("evil.example:{p}"), Some(&t)).starts_with("HTTP/1.1 403"));
+    assert!(get("/", "127.0.0.1", Some(&t)).starts_with("HTTP/1.1 403"), "the port is part of the Host");
+    for host in [local.clone(), format!("localhost:{p}"), format!("[::1]:{p}")] {
+        assert!(get("/", &host, None).starts_with("HTTP/1.1 401"), "{host}: no token, no page");
+    }
+    assert!(get("/", &local, Some("0123")).starts_with("HTTP/1.1 403"), "a wrong token");
+    // The launch URL's token becomes a strict cookie.
+    let r = get(&format!("/?token={t}"), &local, None);
+    assert!(r.starts_with("HTTP/1.1 303"), "{r}");
+    let cookie = r.lines().find(|l| l.to_ascii_lowercase().starts_with("set-cookie:")).unwrap().to_owned();
+    assert!(cookie.contains("HttpOnly") && cookie.contains("SameSite=Strict") && cookie.contains(&t), "{cookie}");
+    let page = get("/", &local, Some(&t));
+    assert!(page.starts_with("HTTP/1.1 200"), "{page}");
+    let lower = page.to_ascii_lowercase();
+    assert!(lower.contains("content-security-policy: default-src 'self'"), "{page}");
+    assert!(!lower.contains("access-control-allow"), "no CORS headers");
+    // No route reads a path a client names.
+    for path in ["/../Cargo.toml", "/scenes/showcase.toml", "/app.js/../../README.md", "/%2e%2e/etc/passwd"] {
+        let r = get(path, &local, Some(&t));
+        assert!(r.starts_with("HTTP/1.1 404") || r.starts_with("HTTP/1.1 400"), "{path}: {r}");
+    }
+    // The WebSocket upgrade wants the page's own Origin.
+    let upgrade = |origin: &str| {
+        http(
+            p,
+            &format!(
+                "GET /ws HTTP/1.1\r\nHost: {local}\r\nCookie: lancer_token={t}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n\
+                 Sec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nOrigin: {origin}\r\n\r\n"
+            ),
+        )
+    };
+    assert!(upgrade("http://evil.example").starts_with("HTTP/1.1 403"));
+    assert!(upgrade(&format!("http://localhost:{}", p + 1)).starts_with("HTTP/1.1 403"), "another port is another origin");
+    assert!(upgrade(&format!("http://{local}")).starts_with("HTTP/1.1 101"));
+    // Another interface: said loudly.
+    let o = Command::new(env!("CARGO_BIN_EXE_lancer"))
+        .args(["serve", "--no-open", "--port", "0", "--host", "256.0.0.1"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success(), "a bad address is refused");
+}
+
+/// A client's WebSocket session on `s`: upgraded, with the first (hello) message read.
+struct Socket(std::net::TcpStream);
+
+impl Socket {
+    fn open(s: &Studio) -> (Socket, serde_json::Value) {
+        use std::io::{Read, Write};
+        let mut tcp = std::net::TcpStream::connect(("127.0.0.1", s.port)).unwrap();
+        tcp.set_read_timeout(Some(std::time::Duration::from_secs(20))).unwrap();
+        let local = format!("127.0.0.1:{}", s.port);
+        write!(
+            tcp,
+            "GET /ws HTTP/1.1\r\nHost: {local}\r\nCookie: lancer_token={}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n\
+             Sec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nOrigin: http://{local}\r\n\r\n",
+            s.token
+        )
+        .unwrap();
+        let mut head = Vec::new();
+        let mut byte = [0u8; 1];
+        while !head.ends_with(b"\r\n\r\n") {
+            tcp.read_exact(&mut byte).unwrap();
+            head.push(byte[0]);
+        }
+        assert!(head.starts_with(b"HTTP/1.1 101"));
+        let mut socket = Socket(tcp);
+        let hello = loop {
+            let (op, data) = socket.read().expect("the hello");
+            if op == 1 {
+                break serde_json::from_slice(&data).unwrap();
+            }
+        };
+        (socket, hello)
+    }
+
+    /// The next message: (opcode, payload); `None` once closed.
+    fn read(&mut self) -> Option<(u8, Vec<u8>)> {
+        use std::io::Read;
+        let mut h = [0u8; 2];
+        self.0.read_exact(&mut h).ok()?;
+        let mut len = (h[1] & 127) as u64;
+        if len == 126 {
+            let mut b = [0u8; 2];
+            self.0.read_exact(&mut b).ok()?;
+            len = u16::from_be_bytes(b) as u64;
+        } else if len == 127 {
+            let mut b = [0u8; 8];
+            self.0.read_exact(&mut b).ok()?;
+            len = u64::from_be_bytes(b);
+        }
+        let mut data = vec![0u8; len as usize];
+        self.0.read_exact(&mut data).ok()?;
+        (h[0] & 15 != 8).then_some((h[0] & 15, data))
+    }
+
+    /// Sends a masked text message.
+    fn send(&mut self, text: &[u8]) -> std::io::Result<()> {
+        use std::io::Write;
+        let mut frame = vec![0x81u8];
+        let n = text.len();
+        if n < 126 {
+            frame.push(0x80 | n as u8);
+        } else if n < 65536 {
+            frame.push(0x80 | 126);
+            frame.extend_from_slice(&(n as u16).to_be_bytes());
+        } else {
+            frame.push(0x80 | 127);
+            frame.extend_from_slice(&(n as u64).to_be_bytes());
+        }
+        let mask = [7u8, 21, 42, 99];
+        frame.extend_from_slice(&mask);
+        frame.extend(text.iter().enumerate().map(|(i, b)| b ^ mask[i % 4]));
+        self.0.write_all(&frame)
+    }
+
+    /// The header of the next complete full frame (skipping other messages).
+    fn full_frame(&mut self) -> serde_json::Value {
+        loop {
+            let (op, data) = self.read().expect("a frame");
+            if op != 2 {
+                continue;
+            }
+            let len = u32::from_le_bytes(data[..4].try_into().unwrap()) as usize;
+            let header: serde_json::Value = serde_json::from_slice(&data[4..4 + len]).unwrap();
+            let last = header["offset"].as_u64().unwrap() + header["count"].as_u64().unwrap() == header["total"].as_u64().unwrap();
+            if header["coarse"] == false && last {
+                return header;
+            }
+        }
+    }
+}
+
+fn resident_mb(pid: u32) -> f64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let kb: f64 = status.lines().find(|l| l.starts_with("VmRSS:")).unwrap().split_whitespace().nth(1).unwrap().parse().unwrap();
+    kb / 1000.0
+}
+
+#[test]
+fn a_storm_of_edits_from_two_tabs_renders_the_newest_and_keeps_memory_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = studio(dir.path(), &[]);
+    let (mut a, hello) = Socket::open(&s);
+    let (mut b, _) = Socket::open(&s);
+    let first = a.full_frame();
+    let rss_before = resident_mb(s.child.id());
+    let mut state = hello["state"].clone();
+    let started = std::time::Instant::now();
+    for i in 0..400 {
+        state["materials"][1]["diff"] = serde_json::json!((i % 100) as f64 / 100.0);
+        let tab = if i % 2 == 0 { &mut a } else { &mut b };
+        tab.send(state.to_string().as_bytes()).unwrap();
+    }
+    let sent = started.elapsed();
+    // The server answers at once in the middle of it.
+    let t = std::time::Instant::now();
+    let page = http(s.port, &format!("GET /app.css HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nCookie: lancer_token={}\r\nConnection: close\r\n\r\n", s.port, s.token));
+    assert!(page.starts_with("HTTP/1.1 200") && t.elapsed() < std::time::Duration::from_secs(2), "responsive");
+    // Both tabs end on the newest edit's full image; far fewer renders than edits were made.
+    let newest = first["generation"].as_u64().unwrap() + 400;
+    for tab in [&mut a, &mut b] {
+        loop {
+            let h = tab.full_frame();
+            if h["generation"].as_u64() == Some(newest) {
+                break;
+            }
+            assert!(h["generation"].as_u64().unwrap() < newest);
+        }
+    }
+    let rss_after = resident_mb(s.child.id());
+    assert!(rss_after < rss_before + 200.0, "memory {rss_before:.0} MB -> {rss_after:.0} MB after 400 edits in {sent:?}");
+    // An oversized message closes that connection, and only that one.
+    let (mut c, _) = Socket::open(&s);
+    let _ = c.send(&vec![b' '; 300 * 1024]);
+    let closed = loop {
+        match c.read() {
+            None => break true,
+            Some(_) => continue,
+        }
+    };
+    assert!(closed);
+    state["materials"][1]["diff"] = serde_json::json!(0.42);
+    a.send(state.to_string().as_bytes()).unwrap();
+    assert_eq!(a.full_frame()["generation"].as_u64(), Some(newest + 1));
+}
