@@ -155,6 +155,9 @@ struct ServeArgs {
     /// The address to listen on; anything but 127.0.0.1 exposes the studio to the network.
     #[arg(long, default_value = "127.0.0.1")]
     host: std::net::IpAddr,
+    /// Let the page's Save write the edits back into the scene file (keeping its comments).
+    #[arg(long)]
+    allow_save: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -603,7 +606,13 @@ fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
         let inputs = std::cell::RefCell::new(Vec::new());
         let loaded = load_recording(&reg, &input, &inputs).map_err(|e| format!("{e:#}"))?;
         let (_, warnings) = loaded.prepare().map_err(|e| format!("{e:#}"))?;
+        let source = match &input.scene {
+            Some(p) => read(p, "scene", input.max_file_size).map_err(|e| format!("{e:#}"))?,
+            None => DEFAULT_SCENE.to_owned(),
+        };
         Ok(lancer_studio::Loaded {
+            source,
+            path: input.scene.clone(),
             labels: loaded.places.materials.clone(),
             warnings: warnings.iter().map(|w| w.to_string()).collect(),
             inputs: inputs.into_inner(),
@@ -615,7 +624,8 @@ fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
     let explainer: lancer_studio::Explainer = std::sync::Arc::new(|e, scene, image, pipeline| {
         crate::explain::Report { scene, image, pipeline, explanation: e }.json()
     });
-    let options = lancer_studio::Options { host: args.host, port: args.port, open: !args.no_open };
+    let options =
+        lancer_studio::Options { host: args.host, port: args.port, open: !args.no_open, allow_save: args.allow_save };
     lancer_studio::serve(registry.clone(), loader, explainer, options)
 }
 

@@ -860,7 +860,10 @@ fn the_studio_answers_only_localhost_with_its_token_and_origin() {
         )
     };
     assert!(upgrade("http://evil.example").starts_with("HTTP/1.1 403"));
-    assert!(upgrade(&format!("http://localhost:{}", p + 1)).starts_with("HTTP/1.1 403"), "another port is another origin");
+    assert!(
+        upgrade(&format!("http://localhost:{}", p + 1)).starts_with("HTTP/1.1 403"),
+        "another port is another origin"
+    );
     assert!(upgrade(&format!("http://{local}")).starts_with("HTTP/1.1 101"));
     // Another interface: said loudly.
     let o = Command::new(env!("CARGO_BIN_EXE_lancer"))
@@ -952,7 +955,8 @@ impl Socket {
             }
             let len = u32::from_le_bytes(data[..4].try_into().unwrap()) as usize;
             let header: serde_json::Value = serde_json::from_slice(&data[4..4 + len]).unwrap();
-            let last = header["offset"].as_u64().unwrap() + header["count"].as_u64().unwrap() == header["total"].as_u64().unwrap();
+            let last = header["offset"].as_u64().unwrap() + header["count"].as_u64().unwrap()
+                == header["total"].as_u64().unwrap();
             if header["coarse"] == false && last {
                 return header;
             }
@@ -962,7 +966,8 @@ impl Socket {
 
 fn resident_mb(pid: u32) -> f64 {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
-    let kb: f64 = status.lines().find(|l| l.starts_with("VmRSS:")).unwrap().split_whitespace().nth(1).unwrap().parse().unwrap();
+    let kb: f64 =
+        status.lines().find(|l| l.starts_with("VmRSS:")).unwrap().split_whitespace().nth(1).unwrap().parse().unwrap();
     kb / 1000.0
 }
 
@@ -984,7 +989,13 @@ fn a_storm_of_edits_from_two_tabs_renders_the_newest_and_keeps_memory_bounded() 
     let sent = started.elapsed();
     // The server answers at once in the middle of it.
     let t = std::time::Instant::now();
-    let page = http(s.port, &format!("GET /app.css HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nCookie: lancer_token={}\r\nConnection: close\r\n\r\n", s.port, s.token));
+    let page = http(
+        s.port,
+        &format!(
+            "GET /app.css HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nCookie: lancer_token={}\r\nConnection: close\r\n\r\n",
+            s.port, s.token
+        ),
+    );
     assert!(page.starts_with("HTTP/1.1 200") && t.elapsed() < std::time::Duration::from_secs(2), "responsive");
     // Both tabs end on the newest edit's full image; far fewer renders than edits were made.
     let newest = first["generation"].as_u64().unwrap() + 400;
@@ -998,7 +1009,10 @@ fn a_storm_of_edits_from_two_tabs_renders_the_newest_and_keeps_memory_bounded() 
         }
     }
     let rss_after = resident_mb(s.child.id());
-    assert!(rss_after < rss_before + 200.0, "memory {rss_before:.0} MB -> {rss_after:.0} MB after 400 edits in {sent:?}");
+    assert!(
+        rss_after < rss_before + 200.0,
+        "memory {rss_before:.0} MB -> {rss_after:.0} MB after 400 edits in {sent:?}"
+    );
     // An oversized message closes that connection, and only that one.
     let (mut c, _) = Socket::open(&s);
     let _ = c.send(&vec![b' '; 300 * 1024]);
@@ -1012,4 +1026,52 @@ fn a_storm_of_edits_from_two_tabs_renders_the_newest_and_keeps_memory_bounded() 
     state["materials"][1]["diff"] = serde_json::json!(0.42);
     a.send(state.to_string().as_bytes()).unwrap();
     assert_eq!(a.full_frame()["generation"].as_u64(), Some(newest + 1));
+}
+
+#[test]
+fn the_studio_saves_edits_into_the_scene_text_keeping_its_comments() {
+    let dir = tempfile::tempdir().unwrap();
+    let original = std::fs::read_to_string(scene("showcase.toml")).unwrap();
+    std::fs::write(dir.path().join("s.toml"), &original).unwrap();
+    let request = |s: &Studio, method: &str, path: &str| {
+        http(
+            s.port,
+            &format!(
+                "{method} {path} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nCookie: lancer_token={}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
+                s.port, s.token
+            ),
+        )
+    };
+    {
+        let s = studio(dir.path(), &["s.toml"]);
+        assert!(request(&s, "POST", "/api/save").starts_with("HTTP/1.1 403"), "no --allow-save, no writing");
+    }
+    let s = studio(dir.path(), &["s.toml", "--allow-save"]);
+    let (mut ws, hello) = Socket::open(&s);
+    ws.full_frame();
+    let mut state = hello["state"].clone();
+    assert_eq!(state["materials"][1]["label"], "floor");
+    state["materials"][1]["diff"] = serde_json::json!(0.3);
+    state["model"]["terms"][2]["variant"] = serde_json::json!("blinn");
+    ws.send(state.to_string().as_bytes()).unwrap();
+    ws.full_frame();
+    let body = |r: String| r.split("\r\n\r\n").nth(1).unwrap_or_default().to_owned();
+    let download = request(&s, "GET", "/api/scene.toml");
+    assert!(download.to_ascii_lowercase().contains("attachment; filename=\"s.toml\""), "{download}");
+    let text = body(download);
+    assert!(text.contains("\"specular:blinn\""), "{text}");
+    // Comments and the untouched lines stay as they were.
+    for line in original.lines().filter(|l| l.starts_with('#') || l.starts_with("[[objects]]")) {
+        assert!(text.contains(line), "lost: {line}");
+    }
+    let saved = request(&s, "POST", "/api/save");
+    assert!(saved.starts_with("HTTP/1.1 200"), "{saved}");
+    let on_disk = std::fs::read_to_string(dir.path().join("s.toml")).unwrap();
+    // The saved scene loads and holds the edit.
+    let o = lancer(dir.path(), &["render", "s.toml", "--width", "32", "-o", "x.png", "-q", "--stats-json", "st.json"]);
+    assert!(o.status.success(), "{}\n{on_disk}", stderr(&o));
+    let stats: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("st.json")).unwrap()).unwrap();
+    assert_eq!(stats["model"]["terms"][2]["variant"], "blinn");
+    let floor = on_disk.split("[materials.floor]").nth(1).unwrap().split("\n[").next().unwrap();
+    assert!(floor.contains("diff = 0.3"), "{floor}");
 }

@@ -7,6 +7,7 @@
 //! (from the launch URL, then a `SameSite=Strict` cookie), checks the Origin of the WebSocket
 //! upgrade, limits request bodies and messages, and reads no path a client names.
 
+mod save;
 mod security;
 mod state;
 mod worker;
@@ -35,6 +36,10 @@ pub struct Loaded {
     pub inputs: Vec<PathBuf>,
     /// How the scene is named.
     pub name: String,
+    /// The scene file's text (what "Save" edits).
+    pub source: String,
+    /// The scene file, when there is one (the embedded showcase has none).
+    pub path: Option<PathBuf>,
 }
 
 /// Loads the scene from its files (the same way each time): an error is the located message.
@@ -51,6 +56,8 @@ pub struct Options {
     pub port: u16,
     /// Open the page in the default browser.
     pub open: bool,
+    /// Let the page write its edits back into the scene file (else it only downloads them).
+    pub allow_save: bool,
 }
 
 /// What renders use besides the state: fixed for a loaded scene.
@@ -61,6 +68,8 @@ pub(crate) struct SceneSlot {
     pub name: String,
     pub warnings: Vec<String>,
     pub inputs: Vec<PathBuf>,
+    pub source: String,
+    pub path: Option<PathBuf>,
     /// The state as the file has it.
     pub loaded: State,
 }
@@ -76,6 +85,8 @@ impl SceneSlot {
             name: l.name,
             warnings: l.warnings,
             inputs: l.inputs,
+            source: l.source,
+            path: l.path,
             loaded,
         })
     }
@@ -98,7 +109,7 @@ pub fn serve(registry: Registry, loader: Loader, explainer: Explainer, options: 
             .await
             .with_context(|| format!("listening on {}:{}", options.host, options.port))?;
         let port = listener.local_addr()?.port();
-        let shared = worker::start(registry, slot, loader, explainer)?;
+        let shared = worker::start(registry, slot, loader, explainer, options.allow_save)?;
         let app = security::router(shared, token.clone(), options.host, port);
         let shown = if options.host.is_loopback() { "127.0.0.1".to_owned() } else { options.host.to_string() };
         let url = format!("http://{shown}:{port}/?token={token}");

@@ -61,6 +61,8 @@ pub(crate) fn router(shared: Arc<Shared>, token: String, host: IpAddr, port: u16
         .route("/app.css", get(|| async { asset(STYLE, "text/css; charset=utf-8") }))
         .route("/ws", get(socket))
         .route("/api/explain", get(explain))
+        .route("/api/scene.toml", get(download))
+        .route("/api/save", axum::routing::post(save))
         .layer(middleware::from_fn_with_state(guard.clone(), check))
         .layer(DefaultBodyLimit::max(LIMIT))
         .with_state(guard)
@@ -208,5 +210,62 @@ async fn explain(Axum(g): Axum<Guard>, Query(p): Query<Pixel>) -> Response {
         Ok(Ok(json)) => ([(header::CONTENT_TYPE, "application/json")], json).into_response(),
         Ok(Err(e)) => (StatusCode::BAD_REQUEST, e).into_response(),
         Err(_) => (StatusCode::INTERNAL_SERVER_ERROR, "the explanation failed").into_response(),
+    }
+}
+
+/// The scene file's text with the current edits, for the browser to download.
+async fn download(Axum(g): Axum<Guard>) -> Response {
+    let state = g.shared.current.lock().expect("state lock").clone();
+    let (text, name) = {
+        let slot = g.shared.slot.lock().expect("slot lock");
+        let name = slot
+            .path
+            .as_ref()
+            .and_then(|p| p.file_name())
+            .map_or("scene.toml".into(), |n| n.to_string_lossy().into_owned());
+        (crate::save::edited(&slot.source, &state), name)
+    };
+    match text {
+        Ok(t) => (
+            [
+                (header::CONTENT_TYPE, "application/toml; charset=utf-8".to_owned()),
+                (header::CONTENT_DISPOSITION, format!("attachment; filename=\"{}\"", name.replace('"', ""))),
+            ],
+            t,
+        )
+            .into_response(),
+        Err(e) => (StatusCode::CONFLICT, e).into_response(),
+    }
+}
+
+/// Writes the edits into the scene file, whole or not at all (`--allow-save` only).
+async fn save(Axum(g): Axum<Guard>) -> Response {
+    if !g.shared.allow_save {
+        return (
+            StatusCode::FORBIDDEN,
+            "start lancer serve with --allow-save to write the scene file; Download works without",
+        )
+            .into_response();
+    }
+    let state = g.shared.current.lock().expect("state lock").clone();
+    let (text, path) = {
+        let slot = g.shared.slot.lock().expect("slot lock");
+        (crate::save::edited(&slot.source, &state), slot.path.clone())
+    };
+    let Some(path) = path else {
+        return (StatusCode::CONFLICT, "the embedded scene has no file to save to").into_response();
+    };
+    let text = match text {
+        Ok(t) => t,
+        Err(e) => return (StatusCode::CONFLICT, e).into_response(),
+    };
+    let temporary = path.with_extension("toml.lancer-save");
+    let written = std::fs::write(&temporary, text).and_then(|()| std::fs::rename(&temporary, &path));
+    match written {
+        Ok(()) => (StatusCode::OK, format!("saved {}", path.display())).into_response(),
+        Err(e) => {
+            let _ = std::fs::remove_file(&temporary);
+            (StatusCode::INTERNAL_SERVER_ERROR, format!("saving {}: {e}", path.display())).into_response()
+        }
     }
 }

@@ -38,6 +38,8 @@ pub(crate) struct Shared {
     pub frames: watch::Sender<Option<FrameBytes>>,
     pub events: broadcast::Sender<String>,
     pub explainer: Explainer,
+    /// Whether the page may write the scene file.
+    pub allow_save: bool,
 }
 
 impl Shared {
@@ -59,6 +61,8 @@ impl Shared {
             "width": slot.image.width,
             "height": slot.image.height,
             "warnings": slot.warnings,
+            "can_save": self.allow_save && slot.path.is_some(),
+            "file": slot.path.as_ref().and_then(|p| p.file_name()).map(|n| n.to_string_lossy().into_owned()),
             "state": *self.current.lock().expect("state lock"),
             "registry": crate::state::registry_json(&self.registry),
         })
@@ -66,7 +70,13 @@ impl Shared {
     }
 }
 
-pub(crate) fn start(registry: Registry, slot: SceneSlot, loader: Loader, explainer: Explainer) -> Result<Arc<Shared>> {
+pub(crate) fn start(
+    registry: Registry,
+    slot: SceneSlot,
+    loader: Loader,
+    explainer: Explainer,
+    allow_save: bool,
+) -> Result<Arc<Shared>> {
     let (frames, _) = watch::channel(None);
     let (events, _) = broadcast::channel(64);
     let state = slot.loaded.clone();
@@ -82,6 +92,7 @@ pub(crate) fn start(registry: Registry, slot: SceneSlot, loader: Loader, explain
         frames,
         events,
         explainer,
+        allow_save,
     });
     let worker = shared.clone();
     std::thread::Builder::new().name("render".into()).spawn(move || render_loop(&worker))?;

@@ -43,6 +43,8 @@ function message(m) {
     $("error").hidden = true;
     $("warnings").hidden = m.warnings.length === 0;
     $("warnings").textContent = m.warnings.join("\n");
+    $("save").disabled = !m.can_save;
+    $("save").title = m.can_save ? `write the edits into ${m.file}` : "start lancer serve with --allow-save";
     buildPanels();
   } else if (m.type === "error") {
     $("error").hidden = false;
@@ -341,3 +343,18 @@ function buildModel() {
   box.push(shadows, el("div", { className: "row" }, el("label", { textContent: "max_depth" }), depth, el("span")), el("div", { className: "row" }, el("label", { textContent: "samples" }), samples, el("span")));
   $("model").replaceChildren(...box);
 }
+
+// --- saving -----------------------------------------------------------------------------
+$("download").onclick = async () => {
+  const r = await fetch("/api/scene.toml");
+  const text = await r.text();
+  if (!r.ok) { $("saved").textContent = text; return; }
+  const name = (r.headers.get("content-disposition") || "").match(/filename="([^"]+)"/)?.[1] || "scene.toml";
+  const a = el("a", { href: URL.createObjectURL(new Blob([text], { type: "application/toml" })), download: name });
+  document.body.append(a); a.click(); a.remove();
+  $("saved").textContent = `downloaded ${name}`;
+};
+$("save").onclick = async () => {
+  const r = await fetch("/api/save", { method: "POST" });
+  $("saved").textContent = await r.text();
+};
