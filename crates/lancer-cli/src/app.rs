@@ -109,6 +109,9 @@ pub(crate) struct SceneArgs {
     /// Largest file (scene, model, mesh or texture) Lancer will read, in MB.
     #[arg(long, value_name = "MB", default_value_t = MAX_FILE_MB, value_parser = clap::value_parser!(u64).range(1..))]
     max_file_size: u64,
+    /// Meshes and textures only from under the scene's folder (the studio sets it).
+    #[arg(skip)]
+    confined: bool,
 }
 
 #[derive(Args, Clone, Default)]
@@ -320,6 +323,15 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
     fingerprint.borrow_mut().write(src.as_bytes());
     let resolve = |rel: &str| {
         let path = base.join(rel);
+        if args.confined {
+            let folder = std::fs::canonicalize(if base.as_os_str().is_empty() { Path::new(".") } else { &base });
+            let file = std::fs::canonicalize(&path);
+            if let (Ok(folder), Ok(file)) = (&folder, &file)
+                && !file.starts_with(folder)
+            {
+                return Err(format!("`{rel}` is outside the scene's folder: the studio reads only files under it"));
+            }
+        }
         inputs.borrow_mut().push(path.clone());
         let bytes = read_bytes(&path, "file", args.max_file_size)?;
         let mut f = fingerprint.borrow_mut();
@@ -600,7 +612,7 @@ fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
             args.host
         );
     }
-    let input = args.input.clone();
+    let input = SceneArgs { confined: true, ..args.input.clone() };
     let reg = registry.clone();
     let loader: lancer_studio::Loader = std::sync::Arc::new(move || {
         let inputs = std::cell::RefCell::new(Vec::new());

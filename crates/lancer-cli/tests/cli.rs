@@ -865,12 +865,23 @@ fn the_studio_answers_only_localhost_with_its_token_and_origin() {
         "another port is another origin"
     );
     assert!(upgrade(&format!("http://{local}")).starts_with("HTTP/1.1 101"));
-    // Another interface: said loudly.
+    // A bad address is refused.
     let o = Command::new(env!("CARGO_BIN_EXE_lancer"))
         .args(["serve", "--no-open", "--port", "0", "--host", "256.0.0.1"])
         .output()
         .unwrap();
     assert!(!o.status.success(), "a bad address is refused");
+    // Meshes and textures only from under the scene's folder.
+    std::fs::create_dir_all(dir.path().join("sub")).unwrap();
+    std::fs::write(dir.path().join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(
+        dir.path().join("sub/s.toml"),
+        "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n[[objects]]\nshape = \"mesh\"\npath = \"../tri.obj\"\n",
+    )
+    .unwrap();
+    let o = lancer(dir.path(), &["serve", "sub/s.toml", "--no-open", "--port", "0"]);
+    assert!(!o.status.success() && stderr(&o).contains("outside the scene's folder"), "{}", stderr(&o));
+    assert!(lancer(dir.path(), &["check", "sub/s.toml"]).status.success(), "render and check may read it");
 }
 
 /// A client's WebSocket session on `s`: upgraded, with the first (hello) message read.
