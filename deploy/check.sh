@@ -32,6 +32,10 @@ fi
 AOV=1 deploy/parallel.sh "$scene" "$parts" "$work/parallel.png" "${flags[@]}"
 same "$work/parallel.png" "$work/parallel.png.aov"
 echo "deploy: GNU parallel, $parts parts: the same bits as a whole render"
+# The --sshlogin path with this machine as the only host (`:`), parts in a shared folder.
+SSHLOGIN=: PARTS_DIR="$work/shared" AOV=1 deploy/parallel.sh "$PWD/$scene" "$parts" "$work/ssh.png" "${flags[@]}"
+same "$work/ssh.png" "$work/ssh.png.aov"
+echo "deploy: GNU parallel through --sshlogin (this machine), $parts parts: the same bits"
 
 export SCENE=$scene RENDER_FLAGS="${flags[*]}" PARTS_DIR=$work/slurm-parts
 for i in $(seq 0 $((parts - 1))); do

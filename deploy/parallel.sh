@@ -7,8 +7,8 @@
 #
 # Locally the parts run as many at once as there are cores. With SSHLOGIN (GNU parallel's
 # --sshlogin list, `:` for this machine) they run on those hosts: each needs `lancer` on its PATH
-# (or LANCER set to its path there) and the scene, with its meshes and textures, at the same
-# path; each part file comes back here (--return) and is removed there (--cleanup).
+# (or LANCER set to its path there), and the scene (with its meshes and textures) and PARTS_DIR
+# must be on a folder every host sees at the same path (NFS): give both as absolute paths.
 set -euo pipefail
 if [ $# -lt 3 ]; then
   sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
@@ -17,16 +17,21 @@ fi
 scene=$1 parts=$2 out=$3
 shift 3
 lancer=${LANCER:-lancer}
-work=$(mktemp -d "${TMPDIR:-/tmp}/lancer-parts.XXXXXX")
-trap 'rm -rf "$work"' EXIT
-remote=()
 if [ -n "${SSHLOGIN:-}" ]; then
-  remote=(--sshlogin "$SSHLOGIN" --return "$work/part-{}.lpart" --cleanup)
+  : "${PARTS_DIR:?with SSHLOGIN, set PARTS_DIR to a folder every host sees at the same path}"
+  mkdir -p "$PARTS_DIR"
+  work=$(mktemp -d "$PARTS_DIR/lancer-parts.XXXXXX")
+  remote=(--sshlogin "$SSHLOGIN")
+else
+  work=$(mktemp -d "${TMPDIR:-/tmp}/lancer-parts.XXXXXX")
+  remote=()
 fi
-seq 0 $((parts - 1)) | parallel --will-cite --halt now,fail=1 "${remote[@]}" \
+trap 'rm -rf "$work"' EXIT
+# -q: each argument goes to lancer as it is (paths and flags with spaces survive).
+seq 0 $((parts - 1)) | parallel --will-cite -q --halt now,fail=1 ${remote[@]+"${remote[@]}"} \
   "$lancer" render "$scene" --tile "{}/$parts" -o "$work/part-{}.lpart" --quiet "$@"
 aov=()
 if [ "${AOV:-0}" = 1 ]; then
   aov=(--aov "$out.aov")
 fi
-"$lancer" merge "$work"/part-*.lpart -o "$out" "${aov[@]}"
+"$lancer" merge "$work"/part-*.lpart -o "$out" ${aov[@]+"${aov[@]}"}

@@ -8,4 +8,4 @@ aov=()
 if [ -n "${AOV_DIR:-}" ]; then
   aov=(--aov "$AOV_DIR")
 fi
-"${LANCER:-lancer}" merge "$work"/parts/part-*.lpart -o "$OUT" "${aov[@]}"
+"${LANCER:-lancer}" merge "$work"/parts/part-*.lpart -o "$OUT" ${aov[@]+"${aov[@]}"}

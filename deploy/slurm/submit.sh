@@ -9,8 +9,10 @@ fi
 scene=$1 parts=$2 out=$3
 shift 3
 here=$(cd "$(dirname "$0")" && pwd)
-parts_dir=${PARTS_DIR:-$PWD/lancer-parts}
+# A folder per submission: parts of an earlier render never mix with these.
+parts_dir=${PARTS_DIR:-$PWD/lancer-parts-$(date +%Y%m%d-%H%M%S)}
 # Through the environment (--export=ALL), so flags may hold commas.
 export SCENE=$scene PARTS_DIR=$parts_dir OUT=$out RENDER_FLAGS="$*" AOV_DIR=${AOV_DIR:-}
 array=$(sbatch --parsable --array="0-$((parts - 1))" --export=ALL "$here/render.sbatch")
+array=${array%%;*} # `id;cluster` on federated clusters
 sbatch --dependency="afterok:$array" --export=ALL "$here/merge.sbatch"

@@ -39,7 +39,12 @@ pub fn run(args: &[String]) -> Result<()> {
         );
     }
     let Some(povray) = which("povray") else {
-        println!("POV-Ray 3.7 is not installed (Debian: apt-get install povray): nothing compared");
+        let absent = "POV-Ray 3.7 is not installed (Debian: apt-get install povray): nothing compared";
+        // Asked to hold a figure, a missing POV-Ray is a failure, not a pass.
+        if least.is_some() {
+            bail!("{absent}");
+        }
+        println!("{absent}");
         return Ok(());
     };
     let lancer = build_renderer()?;

@@ -58,9 +58,10 @@ pub fn parse_tile(s: &str) -> Result<(u32, u32), String> {
 
 /// The byte range of `band`'s rows in a layer of `width` pixels and `height` rows.
 fn band_pixels(band: u32, width: u32, height: u32, rows: u32) -> std::ops::Range<usize> {
-    let first = band * rows;
+    let (band, width, height, rows) = (band as usize, width as usize, height as usize, rows as usize);
+    let first = (band * rows).min(height);
     let last = ((band + 1) * rows).min(height);
-    (first * width) as usize..(last * width) as usize
+    first * width..last * width
 }
 
 /// Writes part `header.index` of `frame` (rendered with only that part's bands) to `path`,
@@ -93,8 +94,19 @@ fn read(path: &Path, limit: u64) -> Result<Part> {
     let header: Header =
         serde_json::from_slice(&rest[..end]).map_err(|e| bad(&format!("its header does not read: {e}")))?;
     let data = rest[end + 1..].to_vec();
-    if header.count == 0 || header.index >= header.count || header.band_rows == 0 || header.layers.is_empty() {
-        return Err(bad("its header names no valid part"));
+    // A hostile or damaged header must not size anything: every figure is checked first.
+    let side = 1..=16384u32;
+    let bands = header.height.div_ceil(lancer_shading::TILE);
+    if header.count == 0
+        || header.index >= header.count
+        || header.count > bands
+        || header.band_rows != lancer_shading::TILE
+        || !side.contains(&header.width)
+        || !side.contains(&header.height)
+        || header.layers.is_empty()
+        || header.layers.len() > 256
+    {
+        return Err(bad("its header names no valid part of a render"));
     }
     let pixels: usize = lancer_shading::part_bands(header.height, header.index, header.count)
         .map(|b| band_pixels(b, header.width, header.height, header.band_rows).len())
@@ -158,7 +170,7 @@ pub fn merge(paths: &[PathBuf], limit: u64) -> Result<(Frame, f64, String)> {
     let mut layers: Vec<Layer> = first
         .layers
         .iter()
-        .map(|name| Layer { name: name.clone(), pixels: bytemuck::zeroed_vec((w * h) as usize) })
+        .map(|name| Layer { name: name.clone(), pixels: bytemuck::zeroed_vec(w as usize * h as usize) })
         .collect();
     let mut stats = RenderStats::default();
     let mut seconds = 0.0;

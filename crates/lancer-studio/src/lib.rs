@@ -72,6 +72,8 @@ pub(crate) struct SceneSlot {
     pub path: Option<PathBuf>,
     /// The state as the file has it.
     pub loaded: State,
+    /// Counts the loads of the scene.
+    pub epoch: u64,
 }
 
 impl SceneSlot {
@@ -88,6 +90,7 @@ impl SceneSlot {
             source: l.source,
             path: l.path,
             loaded,
+            epoch: 0,
         })
     }
 }
@@ -111,7 +114,11 @@ pub fn serve(registry: Registry, loader: Loader, explainer: Explainer, options: 
         let port = listener.local_addr()?.port();
         let shared = worker::start(registry, slot, loader, explainer, options.allow_save)?;
         let app = security::router(shared, token.clone(), options.host, port);
-        let shown = if options.host.is_loopback() { "127.0.0.1".to_owned() } else { options.host.to_string() };
+        let shown = match options.host {
+            IpAddr::V4(a) if a.is_loopback() => "127.0.0.1".to_owned(),
+            IpAddr::V4(a) => a.to_string(),
+            IpAddr::V6(a) => format!("[{a}]"),
+        };
         let url = format!("http://{shown}:{port}/?token={token}");
         println!("Lancer studio: {url}");
         if options.open {

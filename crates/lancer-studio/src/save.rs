@@ -47,17 +47,22 @@ fn params(table: &mut InlineTable, params: &serde_json::Map<String, serde_json::
 }
 
 /// `source` (the scene file's text) with `state`'s values: each material (named, or an object's
-/// inline one), each light, the model and the samples.
-pub(crate) fn edited(source: &str, state: &State) -> Result<String, String> {
+/// inline one; which is which comes from `loaded`, the server's own state of the file, never
+/// from the page), each light, the model and the samples.
+pub(crate) fn edited(source: &str, state: &State, loaded: &State) -> Result<String, String> {
     let mut doc: DocumentMut = source.parse().map_err(|e| format!("the scene file no longer parses: {e}"))?;
-    for m in &state.materials {
-        let item = match m.label.strip_prefix("object ").and_then(|n| n.parse::<usize>().ok()) {
+    if state.materials.len() != loaded.materials.len() || state.lights.len() != loaded.lights.len() {
+        return Err("the edits are for another version of the scene".into());
+    }
+    for (m, known) in state.materials.iter().zip(&loaded.materials) {
+        let label = &known.label;
+        let item = match label.strip_prefix("object ").and_then(|n| n.parse::<usize>().ok()) {
             Some(n) => doc
                 .get_mut("objects")
                 .and_then(|o| o.as_array_of_tables_mut())
-                .and_then(|a| a.get_mut(n - 1))
+                .and_then(|a| a.get_mut(n.checked_sub(1)?))
                 .and_then(|t| t.get_mut("material")),
-            None => doc.get_mut("materials").and_then(|t| t.get_mut(&m.label)),
+            None => doc.get_mut("materials").and_then(|t| t.get_mut(label)),
         };
         let Some(item) = item else { return Err(format!("material `{}` is not in the file", m.label)) };
         // A pattern keeps its table: only plain colours are written.

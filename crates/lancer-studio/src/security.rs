@@ -17,7 +17,7 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use serde::Deserialize;
 
-use crate::worker::Shared;
+use crate::worker::{Shared, lock};
 
 const INDEX: &str = include_str!("page/index.html");
 const SCRIPT: &str = include_str!("page/app.js");
@@ -26,7 +26,15 @@ const STYLE: &str = include_str!("page/app.css");
 /// The most a request body or a WebSocket message may hold: an edit is a few kilobytes.
 const LIMIT: usize = 256 * 1024;
 
-const COOKIE: &str = "lancer_token";
+/// The cookie's name, with the port: two studios on one machine keep their own.
+fn cookie_name(port: u16) -> String {
+    format!("lancer_token_{port}")
+}
+
+/// Equal, in a time that does not depend on where they differ.
+fn same(a: &str, b: &str) -> bool {
+    a.len() == b.len() && a.bytes().zip(b.bytes()).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
 
 /// 128 random bits, in hex.
 pub(crate) fn new_token() -> Result<String> {
@@ -39,6 +47,7 @@ pub(crate) fn new_token() -> Result<String> {
 struct Guard {
     shared: Arc<Shared>,
     token: String,
+    cookie: String,
     /// Host header values the server answers to.
     hosts: Vec<String>,
     /// Origins a WebSocket may come from.
@@ -54,7 +63,7 @@ pub(crate) fn router(shared: Arc<Shared>, token: String, host: IpAddr, port: u16
         });
     }
     let origins = hosts.iter().map(|h| format!("http://{h}")).collect();
-    let guard = Guard { shared, token, hosts, origins };
+    let guard = Guard { shared, token, cookie: cookie_name(port), hosts, origins };
     Router::new()
         .route("/", get(index))
         .route("/app.js", get(|| async { asset(SCRIPT, "text/javascript; charset=utf-8") }))
@@ -72,10 +81,10 @@ fn asset(text: &'static str, kind: &'static str) -> Response {
     ([(header::CONTENT_TYPE, kind), (header::CACHE_CONTROL, "no-store")], text).into_response()
 }
 
-fn cookie_token(headers: &HeaderMap) -> Option<String> {
+fn cookie_token(headers: &HeaderMap, name: &str) -> Option<String> {
     headers.get_all(header::COOKIE).iter().filter_map(|v| v.to_str().ok()).flat_map(|v| v.split(';')).find_map(|c| {
         let (k, v) = c.trim().split_once('=')?;
-        (k == COOKIE).then(|| v.to_owned())
+        (k == name).then(|| v.to_owned())
     })
 }
 
@@ -88,9 +97,9 @@ async fn check(Axum(g): Axum<Guard>, request: Request, next: Next) -> Response {
     }
     let from_query =
         request.uri().query().and_then(|q| q.split('&').find_map(|kv| kv.strip_prefix("token=")).map(str::to_owned));
-    if request.uri().path() == "/" && from_query.as_deref() == Some(g.token.as_str()) {
+    if request.uri().path() == "/" && from_query.as_deref().is_some_and(|t| same(t, &g.token)) {
         // Exchange the URL's token for a cookie, and drop it from the address bar.
-        let cookie = format!("{COOKIE}={}; HttpOnly; SameSite=Strict; Path=/", g.token);
+        let cookie = format!("{}={}; HttpOnly; SameSite=Strict; Path=/", g.cookie, g.token);
         return Response::builder()
             .status(StatusCode::SEE_OTHER)
             .header(header::LOCATION, "/")
@@ -98,8 +107,8 @@ async fn check(Axum(g): Axum<Guard>, request: Request, next: Next) -> Response {
             .body(Body::empty())
             .expect("a redirect");
     }
-    match cookie_token(request.headers()) {
-        Some(t) if t == g.token => {}
+    match cookie_token(request.headers(), &g.cookie) {
+        Some(t) if same(&t, &g.token) => {}
         Some(_) => return (StatusCode::FORBIDDEN, "wrong token").into_response(),
         None => {
             return (StatusCode::UNAUTHORIZED, "open the address `lancer serve` printed (it holds the token)")
@@ -191,19 +200,18 @@ struct Pixel {
 async fn explain(Axum(g): Axum<Guard>, Query(p): Query<Pixel>) -> Response {
     let shared = g.shared.clone();
     let result = tokio::task::spawn_blocking(move || -> Result<String, String> {
-        let state = shared.current.lock().expect("state lock").clone();
-        let mut slot = shared.slot.lock().expect("slot lock");
-        if p.x >= slot.image.width || p.y >= slot.image.height {
-            return Err(format!(
-                "pixel {},{} is outside the {}x{} image",
-                p.x, p.y, slot.image.width, slot.image.height
-            ));
+        let state = lock(&shared.current).clone();
+        let (mut prepared, camera, mut image, name) = {
+            let slot = lock(&shared.slot);
+            (slot.prepared.clone(), slot.camera, slot.image, slot.name.clone())
+        };
+        if p.x >= image.width || p.y >= image.height {
+            return Err(format!("pixel {},{} is outside the {}x{} image", p.x, p.y, image.width, image.height));
         }
-        let pipeline = state.apply(&mut slot.prepared, &shared.registry)?;
-        let mut image = slot.image;
+        let pipeline = state.apply(&mut prepared, &shared.registry)?;
         image.samples = state.model.samples;
-        let e = lancer_shading::explain_pixel(&slot.prepared, &slot.camera, &image, &pipeline, p.x, p.y);
-        Ok((shared.explainer)(&e, &slot.name, &image, &pipeline))
+        let e = lancer_shading::explain_pixel(&prepared, &camera, &image, &pipeline, p.x, p.y);
+        Ok((shared.explainer)(&e, &name, &image, &pipeline))
     })
     .await;
     match result {
@@ -215,15 +223,15 @@ async fn explain(Axum(g): Axum<Guard>, Query(p): Query<Pixel>) -> Response {
 
 /// The scene file's text with the current edits, for the browser to download.
 async fn download(Axum(g): Axum<Guard>) -> Response {
-    let state = g.shared.current.lock().expect("state lock").clone();
+    let state = lock(&g.shared.current).clone();
     let (text, name) = {
-        let slot = g.shared.slot.lock().expect("slot lock");
+        let slot = lock(&g.shared.slot);
         let name = slot
             .path
             .as_ref()
             .and_then(|p| p.file_name())
             .map_or("scene.toml".into(), |n| n.to_string_lossy().into_owned());
-        (crate::save::edited(&slot.source, &state), name)
+        (crate::save::edited(&slot.source, &state, &slot.loaded), name)
     };
     match text {
         Ok(t) => (
@@ -239,7 +247,13 @@ async fn download(Axum(g): Axum<Guard>) -> Response {
 }
 
 /// Writes the edits into the scene file, whole or not at all (`--allow-save` only).
-async fn save(Axum(g): Axum<Guard>) -> Response {
+async fn save(Axum(g): Axum<Guard>, headers: HeaderMap) -> Response {
+    // A form or a fetch from another page (another port of this machine is the same site to
+    // the cookie) carries another Origin.
+    let origin = headers.get(header::ORIGIN).and_then(|o| o.to_str().ok()).unwrap_or("");
+    if !g.origins.iter().any(|o| o == origin) {
+        return (StatusCode::FORBIDDEN, "a save from another origin").into_response();
+    }
     if !g.shared.allow_save {
         return (
             StatusCode::FORBIDDEN,
@@ -247,10 +261,10 @@ async fn save(Axum(g): Axum<Guard>) -> Response {
         )
             .into_response();
     }
-    let state = g.shared.current.lock().expect("state lock").clone();
+    let state = lock(&g.shared.current).clone();
     let (text, path) = {
-        let slot = g.shared.slot.lock().expect("slot lock");
-        (crate::save::edited(&slot.source, &state), slot.path.clone())
+        let slot = lock(&g.shared.slot);
+        (crate::save::edited(&slot.source, &state, &slot.loaded), slot.path.clone())
     };
     let Some(path) = path else {
         return (StatusCode::CONFLICT, "the embedded scene has no file to save to").into_response();

@@ -76,6 +76,9 @@ pub struct ModelState {
 /// Everything the page can change.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct State {
+    /// Which load of the scene the state belongs to (edits made before a reload are dropped).
+    #[serde(default)]
+    pub epoch: u64,
     /// The materials, in the prepared table's order.
     pub materials: Vec<MaterialState>,
     /// The lights, in scene order.
@@ -148,7 +151,12 @@ impl State {
             .collect();
         let shadows =
             ShadowState { name: pipeline.shadows.name.clone(), params: params_json(&pipeline.shadows.params) };
-        State { materials, lights, model: ModelState { terms, shadows, max_depth: pipeline.max_depth, samples } }
+        State {
+            epoch: 0,
+            materials,
+            lights,
+            model: ModelState { terms, shadows, max_depth: pipeline.max_depth, samples },
+        }
     }
 
     /// Writes the materials and lights into `prepared` (whose geometry stays) and builds the

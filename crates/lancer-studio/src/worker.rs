@@ -42,28 +42,64 @@ pub(crate) struct Shared {
     pub allow_save: bool,
 }
 
+/// A mutex's guard even if another thread panicked holding it: the data behind these locks is
+/// replaced whole, never left half-written, so one failed request does not end the studio.
+pub(crate) fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 impl Shared {
-    /// Asks for `state` to be rendered: the render in progress (if any) is cancelled.
+    /// Asks for `state` to be rendered, once it has been checked (an invalid edit is answered
+    /// with an error event and changes nothing): the render in progress is cancelled. An edit
+    /// made on a scene since reloaded (an older `epoch`) is dropped.
     pub(crate) fn ask(&self, state: State) {
+        let (epoch, mut check) = {
+            let slot = lock(&self.slot);
+            (slot.epoch, slot.prepared.clone())
+        };
+        if state.epoch != epoch {
+            return;
+        }
+        if let Err(e) = state.apply(&mut check, &self.registry) {
+            let _ = self.events.send(json!({"type": "error", "message": e}).to_string());
+            return;
+        }
+        self.post(state);
+    }
+
+    /// Queues `state` (already checked) for rendering.
+    fn post(&self, state: State) {
+        // The generation, the request and the current state change together.
+        let mut request = lock(&self.request);
         let generation = self.generation.fetch_add(1, Ordering::SeqCst) + 1;
-        *self.current.lock().expect("state lock") = state.clone();
-        *self.request.lock().expect("request lock") = Some((generation, state));
-        self.cancel.lock().expect("cancel lock").store(true, Ordering::SeqCst);
+        *lock(&self.current) = state.clone();
+        *request = Some((generation, state));
+        lock(&self.cancel).store(true, Ordering::SeqCst);
         self.wake.notify_one();
     }
 
     /// The message a page gets on connecting and after a reload.
     pub(crate) fn hello(&self) -> String {
-        let slot = self.slot.lock().expect("slot lock");
+        let (scene, width, height, warnings, can_save, file) = {
+            let slot = lock(&self.slot);
+            (
+                slot.name.clone(),
+                slot.image.width,
+                slot.image.height,
+                slot.warnings.clone(),
+                self.allow_save && slot.path.is_some(),
+                slot.path.as_ref().and_then(|p| p.file_name()).map(|n| n.to_string_lossy().into_owned()),
+            )
+        };
         json!({
             "type": "hello",
-            "scene": slot.name,
-            "width": slot.image.width,
-            "height": slot.image.height,
-            "warnings": slot.warnings,
-            "can_save": self.allow_save && slot.path.is_some(),
-            "file": slot.path.as_ref().and_then(|p| p.file_name()).map(|n| n.to_string_lossy().into_owned()),
-            "state": *self.current.lock().expect("state lock"),
+            "scene": scene,
+            "width": width,
+            "height": height,
+            "warnings": warnings,
+            "can_save": can_save,
+            "file": file,
+            "state": *lock(&self.current),
             "registry": crate::state::registry_json(&self.registry),
         })
         .to_string()
@@ -97,29 +133,34 @@ pub(crate) fn start(
     let worker = shared.clone();
     std::thread::Builder::new().name("render".into()).spawn(move || render_loop(&worker))?;
     watch_files(shared.clone(), loader, inputs)?;
-    shared.ask(state);
+    shared.post(state);
     Ok(shared)
 }
 
 fn render_loop(shared: &Shared) {
     loop {
         let (generation, state) = {
-            let mut request = shared.request.lock().expect("request lock");
+            let mut request = lock(&shared.request);
             loop {
                 if let Some(r) = request.take() {
                     break r;
                 }
-                request = shared.wake.wait(request).expect("request lock");
+                request = shared.wake.wait(request).unwrap_or_else(std::sync::PoisonError::into_inner);
             }
         };
         let cancel = Arc::new(AtomicBool::new(false));
-        *shared.cancel.lock().expect("cancel lock") = cancel.clone();
+        *lock(&shared.cancel) = cancel.clone();
         // A request that came between taking it and installing the flag: start over.
         if shared.generation.load(Ordering::SeqCst) != generation {
             continue;
         }
-        let mut slot = shared.slot.lock().expect("slot lock");
-        let pipeline = match state.apply(&mut slot.prepared, &shared.registry) {
+        // The scene is copied out (meshes are shared, not copied): the lock is held for that
+        // only, never during a render.
+        let (mut prepared, camera, base_image) = {
+            let slot = lock(&shared.slot);
+            (slot.prepared.clone(), slot.camera, slot.image)
+        };
+        let pipeline = match state.apply(&mut prepared, &shared.registry) {
             Ok(p) => p,
             Err(e) => {
                 let _ = shared.events.send(json!({"type": "error", "message": e}).to_string());
@@ -127,7 +168,7 @@ fn render_loop(shared: &Shared) {
             }
         };
         for coarse in [true, false] {
-            let mut image = slot.image;
+            let mut image = base_image;
             image.samples = state.model.samples;
             if coarse {
                 image.width = (image.width / 4).max(1);
@@ -137,15 +178,15 @@ fn render_loop(shared: &Shared) {
             let start = Instant::now();
             let last = Mutex::new(Instant::now());
             let progress = |done: usize, total: usize| {
-                let mut last = last.lock().expect("progress lock");
+                let mut last = lock(&last);
                 if last.elapsed() > Duration::from_millis(100) {
                     *last = Instant::now();
                     let _ = shared.events.send(json!({"type": "progress", "done": done, "total": total}).to_string());
                 }
             };
             let frame = lancer_shading::render_prepared(
-                &slot.prepared,
-                &slot.camera,
+                &prepared,
+                &camera,
                 &image,
                 &pipeline,
                 RenderOptions { progress: Some(&progress), timing: false, part: None, cancel: Some(&cancel) },
@@ -209,14 +250,24 @@ fn watch_files(shared: Arc<Shared>, loader: Loader, inputs: Vec<std::path::PathB
             if now == stamps {
                 continue;
             }
+            // The files as they are before loading: a save during the load is seen next time.
             stamps = now;
+            let before = files.clone();
             match loader().and_then(SceneSlot::new) {
-                Ok(slot) => {
-                    let state = slot.loaded.clone();
-                    files = slot.inputs.clone();
-                    stamps = files.iter().map(|f| stamp(f)).collect();
-                    *shared.slot.lock().expect("slot lock") = slot;
-                    shared.ask(state);
+                Ok(mut slot) => {
+                    let state = {
+                        let mut old = lock(&shared.slot);
+                        slot.epoch = old.epoch + 1;
+                        slot.loaded.epoch = slot.epoch;
+                        let state = slot.loaded.clone();
+                        files = slot.inputs.clone();
+                        *old = slot;
+                        state
+                    };
+                    if files != before {
+                        stamps = files.iter().map(|f| stamp(f)).collect();
+                    }
+                    shared.post(state);
                     let _ = shared.events.send(shared.hello());
                 }
                 Err(message) => {
