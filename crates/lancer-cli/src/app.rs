@@ -112,6 +112,9 @@ pub(crate) struct SceneArgs {
     /// Meshes and textures only from under the scene's folder (the studio sets it).
     #[arg(skip)]
     confined: bool,
+    /// Fingerprint every byte read (a part of a render, `--tile`, records it for the merge).
+    #[arg(skip)]
+    fingerprint: bool,
 }
 
 #[derive(Args, Clone, Default)]
@@ -334,9 +337,12 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
         }
         inputs.borrow_mut().push(path.clone());
         let bytes = read_bytes(&path, "file", args.max_file_size)?;
-        let mut f = fingerprint.borrow_mut();
-        f.write(rel.as_bytes());
-        f.write(&bytes);
+        // Only a part of a render needs it: hashing a large mesh byte by byte is not free.
+        if args.fingerprint {
+            let mut f = fingerprint.borrow_mut();
+            f.write(rel.as_bytes());
+            f.write(&bytes);
+        }
         Ok(bytes)
     };
     let load_start = Instant::now();
@@ -481,7 +487,8 @@ pub(crate) fn render_recording(
     if args.tile.is_some() && args.aov.is_some() {
         bail!("with --tile, the per-term images come from the merge: lancer merge PARTS... --aov DIR");
     }
-    let loaded = load_recording(registry, &args.input, inputs)?;
+    let input = SceneArgs { fingerprint: args.tile.is_some(), ..args.input.clone() };
+    let loaded = load_recording(registry, &input, inputs)?;
     let (prepared, mut warnings) = loaded.prepare()?;
     if args.aov.is_none() && args.aov_format != AovFormat::default() {
         warnings.push(lancer_scene::Warning {
