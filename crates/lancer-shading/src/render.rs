@@ -102,8 +102,18 @@ pub fn render_prepared(
         bands.retain(|(b, _)| *b as u32 % count.max(1) == index);
     }
     let tiles_count = bands.len() * width.div_ceil(TILE) as usize;
-    let order = spread_order(bands_count);
-    bands.sort_by_key(|(b, _)| order[*b]);
+    // One contiguous run of bands per thread (rayon splits the list in halves, so the first
+    // split falls between runs), each run in a spread order: the tiles done at any moment
+    // sample the whole image, and no two threads fault in pages of the same part of a layer at
+    // once (interleaving bands across threads cost 5 % at 2 threads, in page-table locks).
+    let runs = rayon::current_num_threads().clamp(1, bands_count.max(1));
+    let run_of = |b: usize| b * runs / bands_count;
+    let run_start = |r: usize| (r * bands_count).div_ceil(runs);
+    let ranks: Vec<Vec<usize>> = (0..runs).map(|r| spread_order(run_start(r + 1) - run_start(r))).collect();
+    bands.sort_by_key(|(b, _)| {
+        let r = run_of(*b);
+        (r, ranks[r][*b - run_start(r)])
+    });
     let done = std::sync::atomic::AtomicUsize::new(0);
     let stats = bands
         .into_par_iter()
