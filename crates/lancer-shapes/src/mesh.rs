@@ -146,6 +146,9 @@ impl Mesh {
                 return Err(MeshError::Degenerate(k));
             }
         }
+        // Windings first: the edge sort and the triangle boxes are not in memory at once.
+        let mut triangles = triangles;
+        let closed = crate::topology::orient(&positions, &mut triangles);
         let boxes: Vec<Aabb> = triangles
             .iter()
             .map(|t| {
@@ -154,8 +157,6 @@ impl Mesh {
             })
             .collect();
         let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-        let mut triangles = triangles;
-        let closed = crate::topology::orient(&positions, &mut triangles);
         let mut bvh = Bvh::build(&boxes);
         drop(boxes);
         // Triangles in the order the BVH's leaves visit them: no lookup per triangle.
