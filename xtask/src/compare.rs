@@ -8,7 +8,7 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use crate::{build_renderer, root};
+use crate::{build_renderer, root, which};
 
 /// A pixel differs visibly when a channel is off by more than this many 8-bit steps.
 const VISIBLE: u8 = 8;
@@ -68,10 +68,6 @@ pub fn run(args: &[String]) -> Result<()> {
         bail!("below {} dB: {}", least.unwrap_or_default(), low.join(", "));
     }
     Ok(())
-}
-
-fn which(name: &str) -> Option<std::path::PathBuf> {
-    std::env::var_os("PATH")?.to_str()?.split(':').map(|d| Path::new(d).join(name)).find(|p| p.is_file())
 }
 
 struct Compared {

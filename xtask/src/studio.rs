@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use serde_json::{Value, json};
 
-use crate::{build_renderer, root};
+use crate::{build_renderer, root, which};
 
 /// A child process killed when dropped.
 struct Killed(Child);
@@ -138,10 +138,6 @@ pub fn check(args: &[String]) -> Result<()> {
     let _ = d.call("DELETE", "", json!({}));
     let _ = std::fs::remove_dir_all(&work);
     result
-}
-
-fn which(name: &str) -> Option<PathBuf> {
-    std::env::var_os("PATH")?.to_str()?.split(':').map(|d| Path::new(d).join(name)).find(|p| p.is_file())
 }
 
 fn run(d: &Driver, url: &str, scene: &Path, original: &str, screenshot: &Path) -> Result<()> {

@@ -303,6 +303,8 @@ struct Loaded {
     identity: u64,
     /// How the scene is named in messages.
     name: String,
+    /// The scene file's text as it was read (what the studio's Save edits).
+    source: String,
     load_time: std::time::Duration,
 }
 
@@ -429,7 +431,7 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
     }
     f.write(env!("CARGO_PKG_VERSION").as_bytes());
     let identity = f.finish();
-    Ok(Loaded { scene, pipeline, warnings, places, identity, name, load_time })
+    Ok(Loaded { scene, pipeline, warnings, places, identity, name, source: src, load_time })
 }
 
 impl Loaded {
@@ -624,13 +626,11 @@ fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
     let loader: lancer_studio::Loader = std::sync::Arc::new(move || {
         let inputs = std::cell::RefCell::new(Vec::new());
         let loaded = load_recording(&reg, &input, &inputs).map_err(|e| format!("{e:#}"))?;
-        let (_, warnings) = loaded.prepare().map_err(|e| format!("{e:#}"))?;
-        let source = match &input.scene {
-            Some(p) => read(p, "scene", input.max_file_size).map_err(|e| format!("{e:#}"))?,
-            None => DEFAULT_SCENE.to_owned(),
-        };
+        // Prepared once, here: the studio renders from it (a large mesh's BVH is built once).
+        let (prepared, warnings) = loaded.prepare().map_err(|e| format!("{e:#}"))?;
         Ok(lancer_studio::Loaded {
-            source,
+            prepared,
+            source: loaded.source,
             path: input.scene.clone(),
             labels: loaded.places.materials.clone(),
             warnings: warnings.iter().map(|w| w.to_string()).collect(),

@@ -26,6 +26,8 @@ pub use state::State;
 pub struct Loaded {
     /// The scene.
     pub scene: Scene,
+    /// The scene prepared for rendering.
+    pub prepared: Prepared,
     /// Its model (with the command line's changes).
     pub pipeline: Pipeline,
     /// A name for each prepared material, in order.
@@ -77,10 +79,10 @@ pub(crate) struct SceneSlot {
 }
 
 impl SceneSlot {
-    pub(crate) fn new(l: Loaded) -> Result<SceneSlot, String> {
-        let prepared = lancer_shading::prepare(&l.scene).map_err(|e| format!("preparing {}: {e}", l.name))?;
+    pub(crate) fn new(l: Loaded) -> SceneSlot {
+        let prepared = l.prepared;
         let loaded = State::of(&prepared, &l.pipeline, &l.labels, l.scene.image.samples.clamp(1, 256));
-        Ok(SceneSlot {
+        SceneSlot {
             prepared,
             camera: l.scene.camera,
             image: l.scene.image,
@@ -91,7 +93,7 @@ impl SceneSlot {
             path: l.path,
             loaded,
             epoch: 0,
-        })
+        }
     }
 }
 
@@ -100,7 +102,7 @@ impl SceneSlot {
 /// an error; later, a broken save shows its error on the page and keeps the last image.
 pub fn serve(registry: Registry, loader: Loader, explainer: Explainer, options: Options) -> Result<()> {
     let first = loader().map_err(anyhow::Error::msg)?;
-    let slot = SceneSlot::new(first).map_err(anyhow::Error::msg)?;
+    let slot = SceneSlot::new(first);
     let token = security::new_token()?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)

@@ -134,6 +134,16 @@ async fn socket(Axum(g): Axum<Guard>, headers: HeaderMap, ws: WebSocketUpgrade) 
     ws.max_message_size(LIMIT).max_frame_size(LIMIT).on_upgrade(move |s| session(g.shared, s))
 }
 
+/// Sends a frame's messages; `false` once the page is gone.
+async fn send_frame(ws: &mut WebSocket, frame: Option<crate::worker::FrameBytes>) -> bool {
+    for m in frame.iter().flat_map(|f| f.iter()) {
+        if ws.send(Message::Binary(m.clone().into())).await.is_err() {
+            return false;
+        }
+    }
+    true
+}
+
 /// One page's connection: the hello, then frames and events out, edits in.
 async fn session(shared: Arc<Shared>, mut ws: WebSocket) {
     let mut frames = shared.frames.subscribe();
@@ -142,12 +152,8 @@ async fn session(shared: Arc<Shared>, mut ws: WebSocket) {
         return;
     }
     let latest = frames.borrow_and_update().clone();
-    if let Some(f) = latest {
-        for m in f.iter() {
-            if ws.send(Message::Binary(m.clone().into())).await.is_err() {
-                return;
-            }
-        }
+    if !send_frame(&mut ws, latest).await {
+        return;
     }
     loop {
         tokio::select! {
@@ -171,12 +177,8 @@ async fn session(shared: Arc<Shared>, mut ws: WebSocket) {
                 }
                 // Only the newest frame: a slow page skips the ones it could not take.
                 let frame = frames.borrow_and_update().clone();
-                if let Some(f) = frame {
-                    for m in f.iter() {
-                        if ws.send(Message::Binary(m.clone().into())).await.is_err() {
-                            return;
-                        }
-                    }
+                if !send_frame(&mut ws, frame).await {
+                    return;
                 }
             }
             event = events.recv() => {

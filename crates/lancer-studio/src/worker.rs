@@ -253,7 +253,7 @@ fn watch_files(shared: Arc<Shared>, loader: Loader, inputs: Vec<std::path::PathB
             // The files as they are before loading: a save during the load is seen next time.
             stamps = now;
             let before = files.clone();
-            match loader().and_then(SceneSlot::new) {
+            match loader().map(SceneSlot::new) {
                 Ok(mut slot) => {
                     let state = {
                         let mut old = lock(&shared.slot);
