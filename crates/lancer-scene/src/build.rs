@@ -444,14 +444,10 @@ impl Meshes {
         if bytes.starts_with(&[0xFE, 0xFF]) || bytes.starts_with(&[0xFF, 0xFE]) {
             return Err(bad("the file is UTF-16 text; save it as UTF-8 or ASCII".into()));
         }
-        // Materials come from the scene: the OBJ's own (`mtllib`, `usemtl`, sometimes broken
-        // in real files) are left out before parsing.
-        let mut bytes = without_materials(bytes);
-        // Corners indexed one way throughout: tobj would fill a corner's missing normal or
-        // texture coordinates with another corner's. A file that mixes them keeps its
-        // positions only (flat, untextured), and says so.
-        if let Some(line) = mixed_corners(&bytes) {
-            bytes = positions_only(&bytes);
+        let obj = crate::obj::parse(&bytes)
+            .map_err(|e| bad(format!("not a readable OBJ file (line {}: {})", e.line, e.message)))?;
+        drop(bytes);
+        if let Some(line) = obj.mixed {
             warnings.push(cx.warn(
                 path.span(),
                 format!(
@@ -461,39 +457,14 @@ impl Meshes {
                 ),
             ));
         }
-        // Separate index lists (single_index would hash every corner): most files index normals
-        // and texture coordinates like positions, and `one_index` merges them only otherwise.
-        let options = tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() };
-        // Materials come from the scene, not from the OBJ's mtllib: ignore it.
-        let no_materials = |_: &std::path::Path| -> tobj::MTLLoadResult { Ok((Vec::new(), Default::default())) };
-        let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, no_materials)
-            .map_err(|e| bad(format!("not a readable OBJ file ({e})")))?;
-        let (mut positions, mut normals, mut uvs, mut triangles) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        // Normals and texture coordinates count only where faces refer to them: a file may list
-        // `vn` lines its faces never use.
-        let smooth = models.iter().all(|m| !m.mesh.normals.is_empty() && !m.mesh.normal_indices.is_empty());
-        let textured = models.iter().all(|m| !m.mesh.texcoords.is_empty() && !m.mesh.texcoord_indices.is_empty());
-        for model in &models {
-            let m = one_index(&model.mesh, smooth, textured).map_err(|e| bad(e.to_owned()))?;
-            let base = positions.len() as u32;
-            positions.extend(m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
-            if smooth {
-                normals.extend(m.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
-            }
-            if textured {
-                uvs.extend(m.texcoords.chunks_exact(2).map(|t| glam::Vec2::new(t[0], t[1])));
-            }
-            triangles.extend(m.indices.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
-        }
-        // tobj's copy is not needed any more: freed before the BVH is built (18 bytes a triangle).
-        drop(models);
+        let (positions, normals, uvs, mut triangles) = one_index(obj);
         // Renderers skip triangles with no area (real files have a few): say how many.
         let before = triangles.len();
         triangles.retain(|t| {
             let corner = |i: u32| positions.get(i as usize).copied();
             match (corner(t[0]), corner(t[1]), corner(t[2])) {
                 (Some(a), Some(b), Some(c)) => !lancer_shapes::degenerate(a, b, c),
-                // An index out of range: Mesh::new says which.
+                // The reader checked every index; Mesh::new would say which, were one out of range.
                 _ => true,
             }
         });
@@ -520,106 +491,44 @@ impl Meshes {
     }
 }
 
-/// The OBJ text without its `mtllib` and `usemtl` lines.
-fn without_materials(obj: Vec<u8>) -> Vec<u8> {
-    let is_material = |line: &[u8]| {
-        let t = line.trim_ascii_start();
-        t.starts_with(b"mtllib") || t.starts_with(b"usemtl")
-    };
-    if !obj.split(|&b| b == b'\n').any(is_material) {
-        return obj;
+/// A mesh's arrays with one index per corner for positions, normals and texture coordinates:
+/// the file's own when it indexes them alike, else a vertex for each distinct combination
+/// (found by sorting the corners, not hashing them).
+fn one_index(obj: crate::obj::Obj) -> (Vec<Vec3>, Vec<Vec3>, Vec<glam::Vec2>, Vec<[u32; 3]>) {
+    let crate::obj::Obj { positions, normals, uvs, triangles, normal_triangles, uv_triangles, .. } = obj;
+    // Normals and texture coordinates count only where every face refers to them: a file may
+    // list `vn` lines its faces never use.
+    let (smooth, textured) = (!normal_triangles.is_empty(), !uv_triangles.is_empty());
+    let alike =
+        |other: &[[u32; 3]], len: usize| other.is_empty() || (other == triangles.as_slice() && len == positions.len());
+    if alike(&normal_triangles, normals.len()) && alike(&uv_triangles, uvs.len()) {
+        let normals = if smooth { normals } else { Vec::new() };
+        let uvs = if textured { uvs } else { Vec::new() };
+        return (positions, normals, uvs, triangles);
     }
-    let kept: Vec<&[u8]> = obj.split(|&b| b == b'\n').filter(|l| !is_material(l)).collect();
-    kept.join(&b'\n')
-}
-
-/// The OBJ text with every face corner reduced to its position index (`7/3/2` → `7`), and no
-/// normals or texture coordinates (tobj would still attach those to positions).
-fn positions_only(obj: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(obj.len());
-    for (i, line) in obj.split(|&b| b == b'\n').enumerate() {
-        if i > 0 {
-            out.push(b'\n');
-        }
-        let t = line.trim_ascii_start();
-        if t.starts_with(b"vn") || t.starts_with(b"vt") {
-            continue;
-        }
-        match line.strip_prefix(b"f ").or_else(|| line.strip_prefix(b"f\t")) {
-            Some(rest) => {
-                out.extend_from_slice(b"f");
-                for corner in rest.split(|b| b.is_ascii_whitespace()).filter(|c| !c.is_empty()) {
-                    out.push(b' ');
-                    out.extend_from_slice(corner.split(|&b| b == b'/').next().unwrap_or(corner));
-                }
-            }
-            None => out.extend_from_slice(line),
-        }
-    }
-    out
-}
-
-/// The first line (from 1) of an OBJ file whose face corners are indexed differently (`v`,
-/// `v/vt`, `v//vn`, `v/vt/vn`) from the first face's, if any.
-fn mixed_corners(obj: &[u8]) -> Option<usize> {
-    let kind = |corner: &[u8]| {
-        let mut parts = corner.split(|&b| b == b'/');
-        parts.next();
-        let vt = parts.next().is_some_and(|p| !p.is_empty());
-        let vn = parts.next().is_some_and(|p| !p.is_empty());
-        (vt, vn)
-    };
-    let mut first = None;
-    for (n, line) in obj.split(|&b| b == b'\n').enumerate() {
-        let Some(rest) = line.strip_prefix(b"f ").or_else(|| line.strip_prefix(b"f\t")) else { continue };
-        for corner in rest.split(|b| b.is_ascii_whitespace()).filter(|c| !c.is_empty()) {
-            let k = kind(corner);
-            if *first.get_or_insert(k) != k {
-                return Some(n + 1);
-            }
-        }
-    }
-    None
-}
-
-/// A mesh with one index per corner for positions, normals (with `smooth`) and texture
-/// coordinates (with `textured`): borrowed as it is when the file indexes them alike, else with a
-/// vertex for each distinct combination (found by sorting the corners, not hashing them).
-fn one_index(m: &tobj::Mesh, smooth: bool, textured: bool) -> Result<std::borrow::Cow<'_, tobj::Mesh>, &'static str> {
-    let alike = |other: &[u32]| other.is_empty() || other == m.indices.as_slice();
-    let (ni, ti) = (smooth && !m.normal_indices.is_empty(), textured && !m.texcoord_indices.is_empty());
-    if alike(&m.normal_indices) && alike(&m.texcoord_indices) {
-        return Ok(std::borrow::Cow::Borrowed(m));
-    }
-    let corners = m.indices.len();
-    if (ni && m.normal_indices.len() != corners) || (ti && m.texcoord_indices.len() != corners) {
-        return Err("a face gives normals or texture coordinates to some of its corners only");
-    }
-    let key =
-        |k: usize| (m.indices[k], if ni { m.normal_indices[k] } else { 0 }, if ti { m.texcoord_indices[k] } else { 0 });
+    let corners = 3 * triangles.len();
+    let at = |list: &[[u32; 3]], k: usize| if list.is_empty() { 0 } else { list[k / 3][k % 3] };
+    let key = |k: usize| (at(&triangles, k), at(&normal_triangles, k), at(&uv_triangles, k));
     let mut order: Vec<u32> = (0..corners as u32).collect();
     order.sort_unstable_by_key(|&k| (key(k as usize), k));
-    let mut out = tobj::Mesh { indices: vec![0; corners], ..Default::default() };
+    let (mut p, mut n, mut t) = (Vec::new(), Vec::new(), Vec::new());
+    let mut out = vec![[0u32; 3]; triangles.len()];
     let mut last = None;
     for &k in &order {
-        let (p, n, t) = key(k as usize);
-        if last != Some((p, n, t)) {
-            last = Some((p, n, t));
-            fn get(v: &[f32], i: u32, w: usize) -> Option<&[f32]> {
-                v.get(i as usize * w..(i as usize + 1) * w)
-            }
-            out.positions.extend(get(&m.positions, p, 3).ok_or("a face names a vertex that does not exist")?);
+        let (pi, ni, ti) = key(k as usize);
+        if last != Some((pi, ni, ti)) {
+            last = Some((pi, ni, ti));
+            p.push(positions[pi as usize]);
             if smooth {
-                out.normals.extend(get(&m.normals, n, 3).ok_or("a face names a normal that does not exist")?);
+                n.push(normals[ni as usize]);
             }
             if textured {
-                out.texcoords
-                    .extend(get(&m.texcoords, t, 2).ok_or("a face names texture coordinates that do not exist")?);
+                t.push(uvs[ti as usize]);
             }
         }
-        out.indices[k as usize] = (out.positions.len() / 3 - 1) as u32;
+        out[k as usize / 3][k as usize % 3] = (p.len() - 1) as u32;
     }
-    Ok(std::borrow::Cow::Owned(out))
+    (p, n, t, out)
 }
 
 /// Texture images loaded so far, each file once.

@@ -6,6 +6,7 @@ mod build;
 mod check;
 mod doc;
 mod error;
+mod obj;
 
 pub use build::{Loaded, Places, Resolver, load_model, load_model_over, load_scene, load_scene_with};
 pub use check::check;

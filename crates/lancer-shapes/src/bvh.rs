@@ -1,21 +1,13 @@
-//! A bounding volume hierarchy built with binned SAH, then collapsed into a 4-wide tree whose
-//! nodes keep their children's boxes side by side (structure of arrays), so one pass of slab
+//! A bounding volume hierarchy built with binned SAH straight into a 4-wide tree whose nodes
+//! keep their children's boxes side by side (structure of arrays), so one pass of slab
 //! arithmetic tests all four children at once; traversal visits the nearer children first and
 //! drops those that begin beyond the best hit found.
 
 use glam::Vec3;
+use rayon::prelude::*;
 use wide::{CmpGe, CmpLe, f32x4};
 
 use crate::Aabb;
-
-/// A flattened node: interior nodes have `count == 0`, their left child follows them and their
-/// right child is at `start`; leaves hold `indices[start..start + count]`.
-#[derive(Clone, Copy, Debug)]
-struct Node {
-    bounds: Aabb,
-    start: u32,
-    count: u32,
-}
 
 /// A node of the 4-wide tree: up to four children, each an inner node or a run of items.
 #[derive(Clone, Copy, Debug)]
@@ -28,8 +20,6 @@ struct Node4 {
     child: [u32; 4],
     /// A leaf child's item count; [`INNER`] for an inner child, 0 for an empty slot.
     count: [u32; 4],
-    /// Bit `k` set when slot `k` holds a child.
-    used: i32,
 }
 
 /// `Node4::count` of an inner child.
@@ -48,12 +38,6 @@ pub struct Bvh {
     items: usize,
 }
 
-/// The binary tree the SAH build makes, before it is collapsed.
-struct Binary {
-    nodes: Vec<Node>,
-    indices: Vec<u32>,
-}
-
 const BINS: usize = 12;
 const MAX_LEAF: usize = 4;
 /// The binary tree's greatest depth; the 4-wide tree is no deeper, and each of its levels leaves
@@ -64,28 +48,38 @@ const STACK: usize = 3 * MAX_DEPTH + 4;
 
 impl Bvh {
     /// Builds the hierarchy over `bounds` (item `i` has `bounds[i]`).
+    /// Items costly to test (whole shapes): a range of up to [`MAX_LEAF`] is split whenever
+    /// the split's expected item tests are fewer.
     pub fn build(bounds: &[Aabb]) -> Bvh {
-        if bounds.is_empty() {
+        Bvh::build_with(bounds.len(), |i| bounds[i], 0.0)
+    }
+
+    /// Builds the hierarchy over `n` items whose bounds `bounds(i)` gives, without a list of
+    /// boxes beside the build's own (a million-triangle mesh saves 24 bytes a triangle). `step`
+    /// is the cost of visiting a node in item tests: a range of up to [`MAX_LEAF`] items stays
+    /// one leaf unless splitting it saves more than that (cheap items such as triangles: fewer,
+    /// fuller leaves and a smaller tree).
+    pub fn build_with(n: usize, bounds: impl Fn(usize) -> Aabb + Sync, step: f32) -> Bvh {
+        if n == 0 {
             return Bvh::default();
         }
         let mut items: Vec<Item> =
-            bounds.iter().enumerate().map(|(i, &bounds)| Item { bounds, index: i as u32 }).collect();
-        let mut nodes = vec![Node { bounds: Aabb::EMPTY, start: 0, count: 0 }; 2 * items.len() - 1];
+            (0..n).into_par_iter().map(|i| Item { bounds: bounds(i), index: i as u32 }).collect();
         let extent = Extent::of(&items);
-        let inner = build(&mut items, extent, 0, 0, &mut nodes, 0);
-        let bin = Binary { nodes, indices: items.into_iter().map(|i| i.index).collect() };
-        // A 4-wide node replaces about three binary inner nodes.
-        let mut nodes = Vec::with_capacity(inner / 3 + 1);
-        if bin.nodes[0].count > 0 {
+        let mut nodes = Vec::new();
+        match plan(&mut items, extent, 0, step) {
+            Some(split) => {
+                build(&mut items, 0, split, 1, step, &mut nodes);
+            }
             // A single leaf: one slot of the root.
-            let mut root = Node4::EMPTY;
-            root.set(0, &bin.nodes[0].bounds, bin.nodes[0].start, bin.nodes[0].count);
-            nodes.push(root);
-        } else {
-            bin.collapse(0, &mut nodes);
+            None => {
+                let mut root = Node4::EMPTY;
+                root.set(0, &extent.bounds, 0, n as u32);
+                nodes.push(root);
+            }
         }
-        let items = bin.indices.len();
-        Bvh { nodes, indices: bin.indices, ordered: false, items }
+        nodes.shrink_to_fit();
+        Bvh { nodes, indices: items.into_iter().map(|i| i.index).collect(), ordered: false, items: n }
     }
 
     /// Number of items.
@@ -108,7 +102,7 @@ impl Bvh {
 }
 
 impl Node4 {
-    const EMPTY: Node4 = Node4 { min: [f32x4::ZERO; 3], max: [f32x4::ZERO; 3], child: [0; 4], count: [0; 4], used: 0 };
+    const EMPTY: Node4 = Node4 { min: [f32x4::ZERO; 3], max: [f32x4::ZERO; 3], child: [0; 4], count: [0; 4] };
 
     fn set(&mut self, slot: usize, b: &Aabb, child: u32, count: u32) {
         for axis in 0..3 {
@@ -119,7 +113,12 @@ impl Node4 {
         }
         self.child[slot] = child;
         self.count[slot] = count;
-        self.used |= 1 << slot;
+    }
+
+    /// Bit `k` set when slot `k` holds a child.
+    #[inline]
+    fn used(&self) -> i32 {
+        (0..4).fold(0, |m, k| m | (((self.count[k] != 0) as i32) << k))
     }
 
     /// The entry distance of the ray into each child's box within `[tmin, tmax]` (`o` and
@@ -130,7 +129,7 @@ impl Node4 {
     fn enter(&self, o: &[f32x4; 3], inv_d: &[f32x4; 3], flat: [bool; 3], tmin: f32, tmax: f32) -> ([f32; 4], i32) {
         let mut near = f32x4::splat(tmin);
         let mut far = f32x4::splat(tmax);
-        let mut inside = self.used;
+        let mut inside = self.used();
         for axis in 0..3 {
             if flat[axis] {
                 inside &= (self.min[axis].cmp_le(o[axis]) & self.max[axis].cmp_ge(o[axis])).move_mask();
@@ -192,7 +191,7 @@ impl Extent {
 /// `Some((mid, left, right))` after partitioning `items` in place, with each side's extent
 /// (binned SAH along the widest axis of the centres; one pass to bin, one to partition;
 /// deterministic: it depends only on the input order).
-fn plan(items: &mut [Item], extent: Extent, depth: usize) -> Option<(usize, Extent, Extent)> {
+fn plan(items: &mut [Item], extent: Extent, depth: usize, step: f32) -> Option<(usize, Extent, Extent)> {
     let n = items.len();
     let cb = extent.centres;
     let size = cb.max - cb.min;
@@ -206,12 +205,30 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize) -> Option<(usize, Exte
     // Bin centres along the widest axis and sweep for the cheapest SAH split.
     let scale = BINS as f32 / size[axis];
     let bin_of = |c: Vec3| (((c[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
-    let mut bins = [(Extent::EMPTY, 0usize); BINS];
-    for i in items.iter() {
-        let b = &mut bins[bin_of(i.centre())];
-        b.0 = b.0.with(i);
-        b.1 += 1;
-    }
+    let bin_all = |items: &[Item]| {
+        let mut bins = [(Extent::EMPTY, 0usize); BINS];
+        for i in items {
+            let b = &mut bins[bin_of(i.centre())];
+            b.0 = b.0.with(i);
+            b.1 += 1;
+        }
+        bins
+    };
+    // Large ranges are binned on every thread: unions and counts are exact, so the bins are the
+    // same however the items are shared out.
+    let bins = if n >= PARALLEL {
+        items.par_chunks(PARALLEL / 2).map(bin_all).reduce(
+            || [(Extent::EMPTY, 0usize); BINS],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x = (x.0.union(y.0), x.1 + y.1);
+                }
+                a
+            },
+        )
+    } else {
+        bin_all(items)
+    };
     let mut right = [(Extent::EMPTY, 0usize); BINS];
     let mut acc = (Extent::EMPTY, 0);
     for k in (1..BINS).rev() {
@@ -228,8 +245,8 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize) -> Option<(usize, Exte
             (best, best_cost, best_left) = (k + 1, cost, acc.0);
         }
     }
-    let leaf_cost = extent.bounds.half_area() * n as f32;
-    if best == 0 || (n <= MAX_LEAF && best_cost >= leaf_cost) {
+    let area = extent.bounds.half_area();
+    if best == 0 || (n <= MAX_LEAF && best_cost + step * area >= area * n as f32) {
         return None;
     }
     // Partition in place, in one pass.
@@ -243,62 +260,111 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize) -> Option<(usize, Exte
     Some((mid, best_left, right[best].0))
 }
 
-/// Builds the subtree over `items` (at `offset` in the whole index list) into `slots`, whose
-/// first slot (at `base` in the whole node list) becomes its root: a subtree over `k` items
-/// needs at most `2k − 1` slots, so the left subtree takes the slots after the root and the
-/// right one those from `2 · mid` on, and both sides build at once (large ranges on two
-/// threads) without copying. Unused slots stay unreferenced. The tree is the same whatever the
-/// number of threads. Returns the number of inner nodes.
-fn build(items: &mut [Item], extent: Extent, offset: usize, depth: usize, slots: &mut [Node], base: usize) -> usize {
-    let n = items.len();
-    let b = extent.bounds;
-    let Some((mid, le, re)) = plan(items, extent, depth) else {
-        slots[0] = Node { bounds: b, start: offset as u32, count: n as u32 };
-        return 0;
-    };
-    slots[0] = Node { bounds: b, start: (base + 2 * mid) as u32, count: 0 };
-    let (l, r) = items.split_at_mut(mid);
-    let (left_slots, right_slots) = slots[1..].split_at_mut(2 * mid - 1);
-    let mut left = move || build(l, le, offset, depth + 1, left_slots, base + 1);
-    let mut right = move || build(r, re, offset + mid, depth + 1, right_slots, base + 2 * mid);
-    let (a, c) = if n >= PARALLEL { rayon::join(left, right) } else { (left(), right()) };
-    1 + a + c
+/// A child of a 4-wide node during the build: its items (a range of the node's), their extent,
+/// the depth it would have in a binary tree, and its split (`None`: it is a leaf).
+struct Kid {
+    start: usize,
+    len: usize,
+    extent: Extent,
+    depth: usize,
+    split: Option<(usize, Extent, Extent)>,
 }
 
-impl Binary {
-    /// Collapses binary node `at` (an inner node) and its descendants into 4-wide nodes: its
-    /// children, with the largest inner ones replaced by theirs until there are four.
-    fn collapse(&self, at: usize, out: &mut Vec<Node4>) -> u32 {
-        let children = |i: usize| [i + 1, self.nodes[i].start as usize];
-        let mut kids: arrayvec::ArrayVec<usize, 4> = children(at).into_iter().collect();
-        while kids.len() < 4 {
-            let widest = (0..kids.len()).filter(|&k| self.nodes[kids[k]].count == 0).max_by(|&a, &b| {
-                self.nodes[kids[a]].bounds.half_area().total_cmp(&self.nodes[kids[b]].bounds.half_area())
-            });
-            let Some(k) = widest else { break };
-            let [l, r] = children(kids[k]);
-            kids[k] = l;
-            kids.insert(k + 1, r);
-        }
-        let me = out.len();
-        out.push(Node4::EMPTY);
-        let (mut min, mut max) = ([[0.0f32; 4]; 3], [[0.0f32; 4]; 3]);
-        let mut node = Node4::EMPTY;
-        for (slot, &k) in kids.iter().enumerate() {
-            let n = &self.nodes[k];
-            for axis in 0..3 {
-                min[axis][slot] = n.bounds.min[axis];
-                max[axis][slot] = n.bounds.max[axis];
-            }
-            (node.child[slot], node.count[slot]) =
-                if n.count > 0 { (n.start, n.count) } else { (self.collapse(k, out), INNER) };
-            node.used |= 1 << slot;
-        }
-        node.min = min.map(f32x4::new);
-        node.max = max.map(f32x4::new);
-        out[me] = node;
-        me as u32
+/// Builds the 4-wide node over `items` (at `offset` in the whole item list), split as `split`
+/// says, and its subtree, appending them to `out` in preorder; returns the node's index. The
+/// node's children are the split's two halves, the widest (by surface area) of those that
+/// split again replaced by its halves until there are four: the binary SAH tree collapsed, built
+/// without it. Inner children of large nodes are built on several threads into their own lists,
+/// appended in order: the tree is the same whatever the number of threads.
+fn build(
+    items: &mut [Item],
+    offset: usize,
+    split: (usize, Extent, Extent),
+    depth: usize,
+    step: f32,
+    out: &mut Vec<Node4>,
+) -> u32 {
+    let n = items.len();
+    // The two halves of a split range, each planned (on two threads for a large range).
+    let halves = |items: &mut [Item], start: usize, (mid, le, re): (usize, Extent, Extent), depth: usize| {
+        let len = items.len();
+        let (l, r) = items.split_at_mut(mid);
+        let mut plan_l = move || plan(l, le, depth, step);
+        let mut plan_r = move || plan(r, re, depth, step);
+        let (sl, sr) = if len >= PARALLEL { rayon::join(plan_l, plan_r) } else { (plan_l(), plan_r()) };
+        [
+            Kid { start, len: mid, extent: le, depth, split: sl },
+            Kid { start: start + mid, len: len - mid, extent: re, depth, split: sr },
+        ]
+    };
+    let mut kids: arrayvec::ArrayVec<Kid, 4> = halves(items, 0, split, depth).into_iter().collect();
+    while kids.len() < 4 {
+        let widest = (0..kids.len())
+            .filter(|&k| kids[k].split.is_some())
+            .max_by(|&a, &b| kids[a].extent.bounds.half_area().total_cmp(&kids[b].extent.bounds.half_area()));
+        let Some(k) = widest else { break };
+        let Kid { start, len, depth, split, .. } = kids.remove(k);
+        let split = split.expect("only split children are expanded");
+        let [l, r] = halves(&mut items[start..start + len], start, split, depth + 1);
+        kids.insert(k, r);
+        kids.insert(k, l);
     }
+    let me = out.len();
+    out.push(Node4::EMPTY);
+    let mut node = Node4::EMPTY;
+    if n >= PARALLEL {
+        // Each inner child's subtree in its own list, built at once, then appended in order with
+        // its node indices moved by where it lands.
+        let mut slices = Vec::with_capacity(4);
+        let mut rest = items;
+        for k in &kids {
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(k.len);
+            slices.push(head);
+            rest = tail;
+        }
+        let lists: Vec<Option<Vec<Node4>>> = slices
+            .into_par_iter()
+            .zip(kids.par_iter())
+            .map(|(s, k)| {
+                k.split.map(|split| {
+                    let mut list = Vec::new();
+                    build(s, offset + k.start, split, k.depth + 1, step, &mut list);
+                    list
+                })
+            })
+            .collect();
+        out.reserve(lists.iter().flatten().map(Vec::len).sum());
+        for (slot, (k, list)) in kids.iter().zip(lists).enumerate() {
+            match list {
+                None => node.set(slot, &k.extent.bounds, (offset + k.start) as u32, k.len as u32),
+                Some(list) => {
+                    let base = out.len() as u32;
+                    node.set(slot, &k.extent.bounds, base, INNER);
+                    out.extend(list.into_iter().map(|mut m| {
+                        for c in 0..4 {
+                            if m.count[c] == INNER {
+                                m.child[c] += base;
+                            }
+                        }
+                        m
+                    }));
+                }
+            }
+        }
+    } else {
+        for (slot, k) in kids.iter().enumerate() {
+            match k.split {
+                None => node.set(slot, &k.extent.bounds, (offset + k.start) as u32, k.len as u32),
+                Some(split) => {
+                    let child =
+                        build(&mut items[k.start..k.start + k.len], offset + k.start, split, k.depth + 1, step, out);
+                    node.set(slot, &k.extent.bounds, child, INNER);
+                }
+            }
+        }
+    }
+    out[me] = node;
+    me as u32
 }
 
 impl Bvh {
@@ -414,5 +480,51 @@ mod tests {
             tmax
         });
         assert!(seen.iter().all(|&s| s), "every box contains the ray's path");
+    }
+
+    /// The tree as plain numbers, for comparing two builds.
+    fn layout(b: &Bvh) -> (Vec<[u32; 8]>, Vec<[f32; 24]>, Vec<u32>) {
+        let links = b.nodes.iter().map(|n| [n.child, n.count].concat().try_into().unwrap()).collect();
+        let boxes = b
+            .nodes
+            .iter()
+            .map(|n| n.min.iter().chain(&n.max).flat_map(|v| v.to_array()).collect::<Vec<_>>().try_into().unwrap())
+            .collect();
+        (links, boxes, b.indices.clone())
+    }
+
+    #[test]
+    fn the_tree_is_the_same_on_any_number_of_threads_and_holds_every_item_once() {
+        // Enough items that the build bins, plans and builds subtrees on several threads: pairs
+        // of nearly equal boxes spread at random, as the two triangles of a mesh's quad.
+        let boxes: Vec<Aabb> = (0..3 * PARALLEL as u32)
+            .map(|i| {
+                let h =
+                    |k: u32| ((((i / 2).wrapping_mul(2_654_435_761)).wrapping_add(k * 40_503)) % 10_007) as f32 / 100.0;
+                let min = Vec3::new(h(1), h(2), h(3));
+                Aabb { min, max: min + Vec3::splat(0.5 + 0.01 * (i % 2) as f32) }
+            })
+            .collect();
+        let build = |threads: usize, step: f32| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| Bvh::build_with(boxes.len(), |i| boxes[i], step))
+        };
+        for step in [0.0, 0.5] {
+            let one = build(1, step);
+            assert!(layout(&one) == layout(&build(4, step)), "step {step}: 1 and 4 threads build different trees");
+            let mut seen = vec![0u32; boxes.len()];
+            for n in &one.nodes {
+                for k in 0..4 {
+                    if n.count[k] != INNER {
+                        for &i in &one.indices[n.child[k] as usize..(n.child[k] + n.count[k]) as usize] {
+                            seen[i as usize] += 1;
+                        }
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&s| s == 1), "step {step}: every item in exactly one leaf");
+        }
+        // A cost per node visit keeps each pair in one leaf: fewer nodes.
+        assert!(build(1, 0.5).nodes.len() < build(1, 0.0).nodes.len());
     }
 }

@@ -58,6 +58,9 @@ pub enum MeshError {
     },
 }
 
+/// The cost of a BVH node visit in triangle tests (see [`Bvh::build_with`]).
+const TRIANGLE_STEP: f32 = 0.5;
+
 /// A ray prepared for the watertight test: the axis it runs most along becomes z.
 struct Sheared {
     o: Vec3,
@@ -149,16 +152,11 @@ impl Mesh {
         // Windings first: the edge sort and the triangle boxes are not in memory at once.
         let mut triangles = triangles;
         let closed = crate::topology::orient(&positions, &mut triangles);
-        let boxes: Vec<Aabb> = triangles
-            .iter()
-            .map(|t| {
-                t.iter()
-                    .fold(Aabb::EMPTY, |b, &i| b.union(Aabb { min: positions[i as usize], max: positions[i as usize] }))
-            })
-            .collect();
-        let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-        let mut bvh = Bvh::build(&boxes);
-        drop(boxes);
+        let triangle_box = |t: &[u32; 3]| {
+            t.iter().fold(Aabb::EMPTY, |b, &i| b.union(Aabb { min: positions[i as usize], max: positions[i as usize] }))
+        };
+        let mut bvh = Bvh::build_with(triangles.len(), |k| triangle_box(&triangles[k]), TRIANGLE_STEP);
+        let bounds = triangles.iter().fold(Aabb::EMPTY, |a, t| a.union(triangle_box(t)));
         // Triangles in the order the BVH's leaves visit them: no lookup per triangle.
         let triangles = bvh.into_leaf_order().into_iter().map(|i| triangles[i as usize]).collect();
         Ok(Mesh { bvh, positions, normals, uvs, triangles, bounds, closed })
