@@ -13,6 +13,9 @@ pub struct Mesh {
     normals: Vec<Vec3>,
     uvs: Vec<Vec2>,
     triangles: Vec<[u32; 3]>,
+    /// Each triangle's corners, in the same (leaf) order: the intersection test reads one
+    /// triangle's 36 bytes in a row instead of three positions found through indices.
+    corners: Vec<[Vec3; 3]>,
     bvh: Bvh,
     bounds: Aabb,
     closed: bool,
@@ -61,11 +64,14 @@ pub enum MeshError {
 /// The cost of a BVH node visit in triangle tests (see [`Bvh::build_with`]).
 const TRIANGLE_STEP: f32 = 0.5;
 
-/// A ray prepared for the watertight test: the axis it runs most along becomes z.
+/// A ray prepared for the watertight test: the axis it runs most along becomes z, and the
+/// shear that makes the ray point along z is three dot products per corner.
 struct Sheared {
     o: Vec3,
-    k: [usize; 3],
-    s: Vec3,
+    /// `e_kx − s_x e_kz`, `e_ky − s_y e_kz` and `s_z e_kz`: a corner's sheared coordinates are
+    /// its offset from `o` dotted with these (the products with 0 add nothing, so each is
+    /// exactly `p[kx] − s_x p[kz]`, `p[ky] − s_y p[kz]` and `s_z p[kz]`).
+    rows: [Vec3; 3],
 }
 
 impl Sheared {
@@ -82,15 +88,17 @@ impl Sheared {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        Sheared { o, k: [kx, ky, kz], s: Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]) }
+        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        let axis = |k: usize| Vec3::AXES[k];
+        Sheared { o, rows: [axis(kx) - sx * axis(kz), axis(ky) - sy * axis(kz), sz * axis(kz)] }
     }
 
     /// `(t, barycentric weights of v0, v1, v2)` if the ray meets the triangle with tmin < t < tmax.
     #[inline]
-    fn hit(&self, v: [Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
-        let [kx, ky, kz] = self.k;
+    fn hit(&self, v: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+        let [rx, ry, rz] = self.rows;
         let rel = v.map(|p| p - self.o);
-        let xy = rel.map(|p| (p[kx] - self.s.x * p[kz], p[ky] - self.s.y * p[kz]));
+        let xy = rel.map(|p| (p.dot(rx), p.dot(ry)));
         let [(ax, ay), (bx, by), (cx, cy)] = xy;
         let mut e = Vec3::new(cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
         if e.x == 0.0 || e.y == 0.0 || e.z == 0.0 {
@@ -105,7 +113,7 @@ impl Sheared {
         if det == 0.0 {
             return None;
         }
-        let z = Vec3::new(rel[0][kz], rel[1][kz], rel[2][kz]) * self.s.z;
+        let z = Vec3::new(rel[0].dot(rz), rel[1].dot(rz), rel[2].dot(rz));
         let t = e.dot(z) / det;
         (t > tmin && t < tmax).then(|| (t, e / det))
     }
@@ -158,8 +166,9 @@ impl Mesh {
         let mut bvh = Bvh::build_with(triangles.len(), |k| triangle_box(&triangles[k]), TRIANGLE_STEP);
         let bounds = triangles.iter().fold(Aabb::EMPTY, |a, t| a.union(triangle_box(t)));
         // Triangles in the order the BVH's leaves visit them: no lookup per triangle.
-        let triangles = bvh.into_leaf_order().into_iter().map(|i| triangles[i as usize]).collect();
-        Ok(Mesh { bvh, positions, normals, uvs, triangles, bounds, closed })
+        let triangles: Vec<[u32; 3]> = bvh.into_leaf_order().into_iter().map(|i| triangles[i as usize]).collect();
+        let corners = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
+        Ok(Mesh { bvh, positions, normals, uvs, triangles, corners, bounds, closed })
     }
 
     /// Vertex positions.
@@ -208,8 +217,7 @@ impl Mesh {
         let ray = Sheared::new(o, d);
         let mut best: Option<(u32, f32, Vec3)> = None;
         self.bvh.traverse_from(o, d, tmin, tmax, |i, tmax| {
-            let tri = self.triangles[i as usize].map(|v| self.positions[v as usize]);
-            match ray.hit(tri, tmin, tmax) {
+            match ray.hit(&self.corners[i as usize], tmin, tmax) {
                 Some((t, w)) => {
                     best = Some((i, t, w));
                     t
@@ -229,7 +237,7 @@ impl Mesh {
     pub fn surface(&self, triangle: u32, bary: Vec2) -> LocalSurface {
         let idx = self.triangles[triangle as usize];
         let w = [1.0 - bary.x - bary.y, bary.x, bary.y];
-        let [a, b, c] = idx.map(|v| self.positions[v as usize]);
+        let [a, b, c] = self.corners[triangle as usize];
         let point = w[0] * a + w[1] * b + w[2] * c;
         // Each coordinate is a sum of three products: γ₅ of the sum of their magnitudes.
         let sum = (w[0] * a).abs() + (w[1] * b).abs() + (w[2] * c).abs();
@@ -256,7 +264,7 @@ impl Mesh {
         let ray = Sheared::new(o, d);
         let mut found = false;
         self.bvh.traverse(o, d, tmax, |i, tmax| {
-            if found || ray.hit(self.triangles[i as usize].map(|v| self.positions[v as usize]), 0.0, tmax).is_some() {
+            if found || ray.hit(&self.corners[i as usize], 0.0, tmax).is_some() {
                 found = true;
                 // A negative bound rejects every remaining box: the traversal winds down.
                 return -1.0;
@@ -271,8 +279,8 @@ impl Mesh {
         let ray = Sheared::new(o, d);
         let mut best = None;
         let mut tmax = tmax;
-        for t in &self.triangles {
-            if let Some((th, _)) = ray.hit(t.map(|v| self.positions[v as usize]), tmin, tmax) {
+        for t in &self.corners {
+            if let Some((th, _)) = ray.hit(t, tmin, tmax) {
                 best = Some(th);
                 tmax = th;
             }
