@@ -11,6 +11,7 @@ use crate::Aabb;
 
 /// A node of the 4-wide tree: up to four children, each an inner node or a run of items.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 struct Node4 {
     /// Children's lower corners, per axis, one lane per child.
     min: [f32x4; 3],
@@ -102,7 +103,13 @@ impl Bvh {
 }
 
 impl Node4 {
-    const EMPTY: Node4 = Node4 { min: [f32x4::ZERO; 3], max: [f32x4::ZERO; 3], child: [0; 4], count: [0; 4] };
+    /// No children: every slot's box inverted (lower corner +∞, upper −∞), which no ray meets.
+    const EMPTY: Node4 = Node4 {
+        min: [f32x4::new([f32::INFINITY; 4]); 3],
+        max: [f32x4::new([f32::NEG_INFINITY; 4]); 3],
+        child: [0; 4],
+        count: [0; 4],
+    };
 
     fn set(&mut self, slot: usize, b: &Aabb, child: u32, count: u32) {
         for axis in 0..3 {
@@ -115,30 +122,33 @@ impl Node4 {
         self.count[slot] = count;
     }
 
-    /// Bit `k` set when slot `k` holds a child.
-    #[inline]
-    fn used(&self) -> i32 {
-        (0..4).fold(0, |m, k| m | (((self.count[k] != 0) as i32) << k))
-    }
-
     /// The entry distance of the ray into each child's box within `[tmin, tmax]` (`o` and
     /// `inv_d` splatted per axis), and a bit mask of the children it meets: four slab tests in
-    /// one pass of SIMD arithmetic. On an axis the ray does not move along (`flat`), a child is
-    /// met where the origin lies within its slab, faces included.
+    /// one pass of SIMD arithmetic. On an axis the ray goes down (`back`), a box's upper face is
+    /// the near one: the same distances as taking the smaller of both faces', and an empty slot
+    /// (an inverted box) is entered at +∞, so it is never met. On an axis the ray does not move
+    /// along (`flat`), a child is met where the origin lies within its slab, faces included.
     #[inline]
-    fn enter(&self, o: &[f32x4; 3], inv_d: &[f32x4; 3], flat: [bool; 3], tmin: f32, tmax: f32) -> ([f32; 4], i32) {
+    fn enter(
+        &self,
+        o: &[f32x4; 3],
+        inv_d: &[f32x4; 3],
+        back: [bool; 3],
+        flat: [bool; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> ([f32; 4], i32) {
         let mut near = f32x4::splat(tmin);
         let mut far = f32x4::splat(tmax);
-        let mut inside = self.used();
+        let mut inside = 0b1111;
         for axis in 0..3 {
             if flat[axis] {
                 inside &= (self.min[axis].cmp_le(o[axis]) & self.max[axis].cmp_ge(o[axis])).move_mask();
                 continue;
             }
-            let a = (self.min[axis] - o[axis]) * inv_d[axis];
-            let b = (self.max[axis] - o[axis]) * inv_d[axis];
-            near = a.fast_min(b).fast_max(near);
-            far = a.fast_max(b).fast_min(far);
+            let (lo, hi) = if back[axis] { (self.max[axis], self.min[axis]) } else { (self.min[axis], self.max[axis]) };
+            near = ((lo - o[axis]) * inv_d[axis]).fast_max(near);
+            far = ((hi - o[axis]) * inv_d[axis]).fast_min(far);
         }
         (near.to_array(), near.cmp_le(far).move_mask() & inside)
     }
@@ -395,6 +405,7 @@ impl Bvh {
         // exactly on a box's face meets the box, whichever face, on every CPU.
         let flat = d.abs().cmplt(Vec3::splat(f32::MIN_POSITIVE)).into();
         let inv = d.recip();
+        let back = d.cmplt(Vec3::ZERO).into();
         let o = [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)];
         let inv_d = [f32x4::splat(inv.x), f32x4::splat(inv.y), f32x4::splat(inv.z)];
         // (child, its item count or INNER, entry distance): children are pushed farthest first,
@@ -420,7 +431,7 @@ impl Bvh {
                 continue;
             }
             let node = &self.nodes[child as usize];
-            let (near, mask) = node.enter(&o, &inv_d, flat, tmin, tmax);
+            let (near, mask) = node.enter(&o, &inv_d, back, flat, tmin, tmax);
             // The children met, farthest first (ties: later slot first, so earlier slots are
             // visited first).
             let mut order = [0usize; 4];

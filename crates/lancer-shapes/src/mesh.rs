@@ -216,14 +216,12 @@ impl Mesh {
     pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<ShapeHit> {
         let ray = Sheared::new(o, d);
         let mut best: Option<(u32, f32, Vec3)> = None;
-        self.bvh.traverse_from(o, d, tmin, tmax, |i, tmax| {
-            match ray.hit(&self.corners[i as usize], tmin, tmax) {
-                Some((t, w)) => {
-                    best = Some((i, t, w));
-                    t
-                }
-                None => tmax,
+        self.bvh.traverse_from(o, d, tmin, tmax, |i, tmax| match ray.hit(&self.corners[i as usize], tmin, tmax) {
+            Some((t, w)) => {
+                best = Some((i, t, w));
+                t
             }
+            None => tmax,
         });
         let (part, t, w) = best?;
         Some(ShapeHit { t, normal: Vec3::ZERO, part, bary: Vec2::new(w.y, w.z) })
