@@ -11,7 +11,6 @@ use crate::Aabb;
 
 /// A node of the 4-wide tree: up to four children, each an inner node or a run of items.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(64))]
 struct Node4 {
     /// Children's lower corners, per axis, one lane per child.
     min: [f32x4; 3],
@@ -37,6 +36,8 @@ pub struct Bvh {
     ordered: bool,
     /// Number of items.
     items: usize,
+    /// The root node's index.
+    root: u32,
 }
 
 const BINS: usize = 12;
@@ -68,19 +69,18 @@ impl Bvh {
             (0..n).into_par_iter().map(|i| Item { bounds: bounds(i), index: i as u32 }).collect();
         let extent = Extent::of(&items);
         let mut nodes = Vec::new();
-        match plan(&mut items, extent, 0, step) {
-            Some(split) => {
-                build(&mut items, 0, split, 1, step, &mut nodes);
-            }
+        let root = match plan(&mut items, extent, 0, step) {
+            Some(split) => build(&mut items, 0, split, 1, step, &mut nodes),
             // A single leaf: one slot of the root.
             None => {
                 let mut root = Node4::EMPTY;
                 root.set(0, &extent.bounds, 0, n as u32);
                 nodes.push(root);
+                0
             }
-        }
+        };
         nodes.shrink_to_fit();
-        Bvh { nodes, indices: items.into_iter().map(|i| i.index).collect(), ordered: false, items: n }
+        Bvh { nodes, indices: items.into_iter().map(|i| i.index).collect(), ordered: false, items: n, root }
     }
 
     /// Number of items.
@@ -319,12 +319,14 @@ fn build(
         kids.insert(k, r);
         kids.insert(k, l);
     }
-    let me = out.len();
-    out.push(Node4::EMPTY);
     let mut node = Node4::EMPTY;
     if n >= PARALLEL {
-        // Each inner child's subtree in its own list, built at once, then appended in order with
-        // its node indices moved by where it lands.
+        // Each inner child's subtree in its own list, built at once; the first list becomes this
+        // subtree's (moved, not copied), the others are appended with their node indices moved by
+        // where they land, and this node goes last. Only whole lists are ever held twice, so a
+        // large tree peaks at about its own size. (`out` is empty here: a large range is the
+        // root's, or a child's of another large range, which starts a list of its own.)
+        debug_assert!(out.is_empty());
         let mut slices = Vec::with_capacity(4);
         let mut rest = items;
         for k in &kids {
@@ -332,24 +334,30 @@ fn build(
             slices.push(head);
             rest = tail;
         }
-        let lists: Vec<Option<Vec<Node4>>> = slices
+        let lists: Vec<Option<(Vec<Node4>, u32)>> = slices
             .into_par_iter()
             .zip(kids.par_iter())
             .map(|(s, k)| {
                 k.split.map(|split| {
                     let mut list = Vec::new();
-                    build(s, offset + k.start, split, k.depth + 1, step, &mut list);
-                    list
+                    let root = build(s, offset + k.start, split, k.depth + 1, step, &mut list);
+                    list.shrink_to_fit();
+                    (list, root)
                 })
             })
             .collect();
-        out.reserve(lists.iter().flatten().map(Vec::len).sum());
+        let total: usize = lists.iter().flatten().map(|(l, _)| l.len()).sum();
         for (slot, (k, list)) in kids.iter().zip(lists).enumerate() {
             match list {
                 None => node.set(slot, &k.extent.bounds, (offset + k.start) as u32, k.len as u32),
-                Some(list) => {
+                Some((list, root)) => {
                     let base = out.len() as u32;
-                    node.set(slot, &k.extent.bounds, base, INNER);
+                    node.set(slot, &k.extent.bounds, base + root, INNER);
+                    if out.is_empty() {
+                        *out = list;
+                        out.reserve_exact(total + 1 - out.len());
+                        continue;
+                    }
                     out.extend(list.into_iter().map(|mut m| {
                         for c in 0..4 {
                             if m.count[c] == INNER {
@@ -361,7 +369,12 @@ fn build(
                 }
             }
         }
+        out.push(node);
+        (out.len() - 1) as u32
     } else {
+        // Preorder: this node, then each child's subtree in slot order.
+        let me = out.len();
+        out.push(Node4::EMPTY);
         for (slot, k) in kids.iter().enumerate() {
             match k.split {
                 None => node.set(slot, &k.extent.bounds, (offset + k.start) as u32, k.len as u32),
@@ -372,9 +385,9 @@ fn build(
                 }
             }
         }
+        out[me] = node;
+        me as u32
     }
-    out[me] = node;
-    me as u32
 }
 
 impl Bvh {
@@ -413,7 +426,7 @@ impl Bvh {
         // per level of a tree at most MAX_DEPTH deep stay behind. An `ArrayVec`: no memory to
         // clear per query.
         let mut stack: arrayvec::ArrayVec<(u32, u32, f32), STACK> = arrayvec::ArrayVec::new();
-        stack.push((0, INNER, tmin));
+        stack.push((self.root, INNER, tmin));
         while let Some((child, count, entry)) = stack.pop() {
             if entry > tmax {
                 continue;

@@ -3,6 +3,7 @@
 //! and Wald 2013), so rays never slip through the shared edge of two triangles.
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::{Aabb, Bvh, LocalSurface, ShapeHit};
 
@@ -166,8 +167,13 @@ impl Mesh {
         let mut bvh = Bvh::build_with(triangles.len(), |k| triangle_box(&triangles[k]), TRIANGLE_STEP);
         let bounds = triangles.iter().fold(Aabb::EMPTY, |a, t| a.union(triangle_box(t)));
         // Triangles in the order the BVH's leaves visit them: no lookup per triangle.
-        let triangles: Vec<[u32; 3]> = bvh.into_leaf_order().into_iter().map(|i| triangles[i as usize]).collect();
-        let corners = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
+        let order = bvh.into_leaf_order();
+        let sorted: Vec<[u32; 3]> = order.par_iter().map(|&i| triangles[i as usize]).collect();
+        // The file-order list goes before the corners are made: a million triangles' peak
+        // holds one list of indices, not two.
+        drop((order, triangles));
+        let corners = sorted.par_iter().map(|t| t.map(|i| positions[i as usize])).collect();
+        let triangles = sorted;
         Ok(Mesh { bvh, positions, normals, uvs, triangles, corners, bounds, closed })
     }
 
