@@ -53,7 +53,8 @@ fn povray_run(pov: &Path, w: u32, h: u32, threads: u32) -> Result<f64> {
         .arg(format!("+I{}", pov.display()))
         .args([format!("+W{w}"), format!("+H{h}"), "-A".into(), format!("+WT{threads}"), "-D".into()])
         .arg(format!("+O{}", out_png.display()))
-        .current_dir(std::env::temp_dir())
+        // Beside the scene: an exported scene's image maps are found there.
+        .current_dir(pov.parent().unwrap_or(Path::new(".")))
         .output()
         .context("running povray")?;
     let text = String::from_utf8_lossy(&out.stderr).into_owned() + &String::from_utf8_lossy(&out.stdout);
@@ -343,6 +344,54 @@ pub fn run(args: &[String]) -> Result<()> {
         bound: 120.0,
         at_most: true,
     });
+
+    // Mesh scenes against POV-Ray: each exported by `lancer export pov` (so both render the same
+    // scene) and traced by both at 1280x720 on two threads.
+    let mut mesh_pov_rows = Vec::new();
+    if has_pov {
+        println!(
+            "\nMesh scenes against POV-Ray 3.7 (each exported by `lancer export pov`), 1280x720, 2 threads, median of {runs}"
+        );
+        println!("{:<58} {:>11} {:>11} {:>16}", "scene", "lancer (s)", "povray (s)", "povray / lancer");
+        let meshes = root().join("scenes/meshes.toml");
+        let field = dir.join("field-100000.toml");
+        let opaque = ["--terms", "ambient,diffuse,specular,mirror", "--shadows", "hard"];
+        let cases: [(&str, &Path, &[&str]); 2] = [
+            ("scenes/meshes.toml, opaque (as CI compares it)", &meshes, &opaque),
+            ("height field, 100,000 triangles, mirror, hard shadows", &field, &[]),
+        ];
+        for (k, (what, scene, flags)) in cases.iter().enumerate() {
+            let size = ["--width", "1280", "--height", "720"];
+            let extra: Vec<&str> = size.iter().chain(flags.iter()).copied().collect();
+            let pov_dir = dir.join(format!("pov-{k}"));
+            std::fs::create_dir_all(&pov_dir)?;
+            let pov_file = pov_dir.join("scene.pov");
+            let out = Command::new(&lancer)
+                .args(["export", "pov"])
+                .arg(scene)
+                .args(&extra)
+                .arg("-o")
+                .arg(&pov_file)
+                .output()
+                .context("running lancer export pov")?;
+            if !out.status.success() {
+                bail!("lancer export pov failed: {}", String::from_utf8_lossy(&out.stderr));
+            }
+            let r = median_run(&lancer, scene, 2, runs, &extra)?;
+            let p = median((0..runs).map(|_| povray_run(&pov_file, 1280, 720, 2)).collect::<Result<Vec<_>>>()?);
+            println!("{what:<58} {:>11.3} {p:>11.3} {:>15.2}x", r.secs, p / r.secs);
+            mesh_pov_rows.push(serde_json::json!({ "scene": what, "lancer_s": r.secs, "povray_s": p, "ratio": p / r.secs }));
+            if k == 1 {
+                targets.push(Target {
+                    what: "mesh-heavy scene (100k-triangle field), 2 threads: POV-Ray / Lancer",
+                    measured: p / r.secs,
+                    bound: 3.0,
+                    at_most: false,
+                });
+            }
+        }
+    }
+    json.insert("meshes_vs_povray".into(), mesh_pov_rows.into());
 
     println!("\nTargets");
     for t in &targets {
