@@ -380,7 +380,8 @@ pub fn run(args: &[String]) -> Result<()> {
             let r = median_run(&lancer, scene, 2, runs, &extra)?;
             let p = median((0..runs).map(|_| povray_run(&pov_file, 1280, 720, 2)).collect::<Result<Vec<_>>>()?);
             println!("{what:<58} {:>11.3} {p:>11.3} {:>15.2}x", r.secs, p / r.secs);
-            mesh_pov_rows.push(serde_json::json!({ "scene": what, "lancer_s": r.secs, "povray_s": p, "ratio": p / r.secs }));
+            mesh_pov_rows
+                .push(serde_json::json!({ "scene": what, "lancer_s": r.secs, "povray_s": p, "ratio": p / r.secs }));
             if k == 1 {
                 targets.push(Target {
                     what: "mesh-heavy scene (100k-triangle field), 2 threads: POV-Ray / Lancer",
