@@ -1,5 +1,6 @@
 //! `cargo xtask bench`: Lancer against POV-Ray 3.7 on the same scene (`scenes/bench/anchor.toml`
-//! and `scenes/bench/anchor.pov`), and how render cost grows with the number of objects.
+//! and `scenes/bench/anchor.pov`) and on two mesh scenes (exported by `lancer export pov`), and
+//! how render cost, loading time and memory grow with samples, objects and triangles.
 
 use std::fmt::Write as _;
 use std::path::Path;

@@ -457,6 +457,18 @@ impl Meshes {
                 ),
             ));
         }
+        if obj.replaced > 0 {
+            warnings.push(cx.warn(
+                path.span(),
+                format!(
+                    "mesh `{}`: {} normal or texture coordinate line{} with numbers that are not finite (such as \
+                     `nan`) read as zero",
+                    path.get_ref(),
+                    obj.replaced,
+                    if obj.replaced > 1 { "s" } else { "" }
+                ),
+            ));
+        }
         let (positions, normals, uvs, mut triangles) = one_index(obj);
         // Renderers skip triangles with no area (real files have a few): say how many.
         let before = triangles.len();

@@ -11,7 +11,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 /// What a mesh needs from an OBJ file.
-#[derive(Debug, Default)]
+#[derive(Debug, Default, PartialEq)]
 pub(crate) struct Obj {
     /// `v` lines.
     pub positions: Vec<Vec3>,
@@ -29,6 +29,9 @@ pub(crate) struct Obj {
     /// `v//vn`, `v/vt/vn`) from the first face's. Normals and texture coordinates are then left
     /// out for the whole mesh.
     pub mixed: Option<usize>,
+    /// How many `vn` and `vt` lines gave numbers that are not finite (replaced by zero: such a
+    /// normal counts for nothing where it is interpolated).
+    pub replaced: usize,
 }
 
 /// Why an OBJ file cannot be read: the line (from 1) and what was expected there.
@@ -77,7 +80,6 @@ struct Counts {
     positions: usize,
     normals: usize,
     uvs: usize,
-    triangles: usize,
 }
 
 impl Counts {
@@ -87,7 +89,6 @@ impl Counts {
             positions: self.positions + o.positions,
             normals: self.normals + o.normals,
             uvs: self.uvs + o.uvs,
-            triangles: self.triangles + o.triangles,
         }
     }
 }
@@ -115,11 +116,10 @@ fn count(chunk: &[u8]) -> Counts {
     let mut c = Counts::default();
     for line in chunk.split(|&b| b == b'\n') {
         c.lines += 1;
-        match statement(line).0 {
+        match statement(uncommented(line)).0 {
             Statement::Position => c.positions += 1,
             Statement::Normal => c.normals += 1,
             Statement::Uv => c.uvs += 1,
-            // A face of k corners makes k − 2 triangles: counted while reading.
             Statement::Face | Statement::Other => {}
         }
     }
@@ -141,31 +141,35 @@ struct Part {
     first: Option<(Kind, usize)>,
     /// The first line whose corners differ from the chunk's first face's (or among themselves).
     mixed: Option<usize>,
+    /// Normals and texture coordinates that were not finite numbers, replaced by zero.
+    replaced: usize,
 }
 
-/// Reads the numbers after a keyword: at least `min` and at most `max` of them (more are
-/// ignored, as vertex colours after a position).
-fn numbers<const N: usize>(rest: &[u8], min: usize, what: &str) -> Result<[f32; N], String> {
+/// Reads the numbers after a keyword: at least `min`, the first `N` kept (more are ignored, as
+/// vertex colours after a position), and how many words there were.
+fn numbers<const N: usize>(rest: &[u8], min: usize, what: &str) -> Result<([f32; N], usize), String> {
     let mut out = [0.0; N];
     let mut n = 0;
+    let mut given = 0;
     for token in rest.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty()) {
+        given += 1;
         if n == N {
-            break;
+            continue;
         }
         let text = std::str::from_utf8(token).unwrap_or("");
-        let v: f32 = text
+        if token == b"\\" {
+            return Err("line continuations (`\\` at the end of a line) are not supported: join the lines".into());
+        }
+        out[n] = text
             .parse()
             .map_err(|_| format!("expected a number in `{what}`, found `{}`", String::from_utf8_lossy(token)))?;
-        if !v.is_finite() {
-            return Err(format!("`{what}` has a coordinate that is not a finite number (`{text}`)"));
-        }
-        out[n] = v;
         n += 1;
     }
     if n < min {
-        return Err(format!("`{what}` needs {min} numbers, found {n}"));
+        let s = if min == 1 { "" } else { "s" };
+        return Err(format!("`{what}` needs {min} number{s}, found {n}"));
     }
-    Ok(out)
+    Ok((out, given))
 }
 
 /// One index of a corner: from 1, or negative counting back from the last element before the
@@ -182,7 +186,11 @@ fn index(field: &[u8], before: usize, total: usize, what: &str) -> Result<Option
         i if i > 0 => i - 1,
         i => before as i64 + i,
     };
-    if at < 0 || at >= total as i64 {
+    if i < 0 && at < 0 {
+        let given = if before == 1 { "is 1".to_owned() } else { format!("are {before}") };
+        return Err(format!("the face names {what} {i}, but there {given} before this line"));
+    }
+    if at >= total as i64 {
         let given = if total == 1 { "is 1".to_owned() } else { format!("are {total}") };
         return Err(format!("the face names {what} {i}, but there {given} in the file"));
     }
@@ -202,24 +210,50 @@ fn read(chunk: &[u8], at: Counts, total: Counts) -> Result<Part, ObjError> {
         let (what, rest) = statement(uncommented(raw));
         match what {
             Statement::Position => {
-                let [x, y, z] = numbers(rest, 3, "v").map_err(fail)?;
-                o.positions.push(Vec3::new(x, y, z));
+                let ([x, y, z, w], n) = numbers(rest, 3, "v").map_err(fail)?;
+                // Four numbers are homogeneous coordinates; six or seven are a position and a
+                // vertex colour (left out).
+                let p = if n == 4 {
+                    if w == 0.0 || !w.is_finite() {
+                        return Err(fail(format!(
+                            "`v` has a weight `w` of {w}: expected a finite number other than 0"
+                        )));
+                    }
+                    Vec3::new(x / w, y / w, z / w)
+                } else {
+                    Vec3::new(x, y, z)
+                };
+                if !p.is_finite() {
+                    return Err(fail("`v` has a coordinate that is not a finite number".into()));
+                }
+                o.positions.push(p);
                 positions += 1;
             }
             Statement::Normal => {
-                let [x, y, z] = numbers(rest, 3, "vn").map_err(fail)?;
-                o.normals.push(Vec3::new(x, y, z));
+                let ([x, y, z], _) = numbers(rest, 3, "vn").map_err(fail)?;
+                let n = Vec3::new(x, y, z);
+                // Exporters write `nan` normals for faces with no area: such a normal counts for
+                // nothing in the interpolation (the face's own normal takes over).
+                o.normals.push(if n.is_finite() { n } else { Vec3::ZERO });
+                part.replaced += !n.is_finite() as usize;
                 normals += 1;
             }
             Statement::Uv => {
-                let [u, v] = numbers(rest, 1, "vt").map_err(fail)?;
-                o.uvs.push(Vec2::new(u, v));
+                let ([u, v], _) = numbers(rest, 1, "vt").map_err(fail)?;
+                let t = Vec2::new(u, v);
+                o.uvs.push(if t.is_finite() { t } else { Vec2::ZERO });
+                part.replaced += !t.is_finite() as usize;
                 uvs += 1;
             }
             Statement::Face => {
                 corners.clear();
                 for token in rest.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty()) {
                     let corner = || String::from_utf8_lossy(token);
+                    if token == b"\\" {
+                        let message =
+                            "line continuations (`\\` at the end of a line) are not supported: join the lines";
+                        return Err(fail(message.into()));
+                    }
                     let mut fields = token.split(|&b| b == b'/');
                     let [pf, tf, nf] = [(); 3].map(|_| fields.next().unwrap_or(b""));
                     if pf.is_empty() {
@@ -267,7 +301,16 @@ fn read(chunk: &[u8], at: Counts, total: Counts) -> Result<Part, ObjError> {
 /// how the file is cut (the same arrays, and the error of the earliest bad line).
 pub(crate) fn parse(bytes: &[u8]) -> Result<Obj, ObjError> {
     // About four chunks a thread for balance, none under 256 KiB.
-    let parts = (bytes.len() / (256 << 10)).clamp(1, 4 * rayon::current_num_threads());
+    parse_in(bytes, (bytes.len() / (256 << 10)).clamp(1, 4 * rayon::current_num_threads()))
+}
+
+/// [`parse`] with the file cut into about `parts` chunks.
+fn parse_in(bytes: &[u8], parts: usize) -> Result<Obj, ObjError> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    if !bytes.contains(&b'\n') && bytes.contains(&b'\r') {
+        let message = "the lines end with a carriage return alone (old Mac OS): save the file with LF or CRLF endings";
+        return Err(ObjError { line: 1, message: message.into() });
+    }
     let pieces = chunks(bytes, parts);
     let counts: Vec<Counts> = pieces.par_iter().map(|c| count(c)).collect();
     let mut starts = Vec::with_capacity(counts.len());
@@ -276,11 +319,18 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Obj, ObjError> {
         starts.push(total);
         total = total.add(*c);
     }
-    let parts: Vec<Part> = pieces
-        .par_iter()
-        .zip(starts.par_iter())
-        .map(|(chunk, &at)| read(chunk, at, total))
-        .collect::<Result<_, _>>()?;
+    // Indices are 32-bit: a file with more elements than that is refused before reading.
+    if [total.positions, total.normals, total.uvs].iter().any(|&n| n >= u32::MAX as usize) {
+        return Err(ObjError { line: total.lines, message: "more than 4 billion vertices: too many to index".into() });
+    }
+    let read: Vec<Result<Part, ObjError>> =
+        pieces.par_iter().zip(starts.par_iter()).map(|(chunk, &at)| read(chunk, at, total)).collect();
+    // Each chunk stops at its own first bad line, so the first failing chunk has the file's.
+    let parts = read.into_iter().collect::<Result<Vec<Part>, ObjError>>()?;
+    let triangles: usize = parts.iter().map(|p| p.obj.triangles.len()).sum();
+    if triangles >= u32::MAX as usize {
+        return Err(ObjError { line: total.lines, message: "more than 4 billion triangles: too many to index".into() });
+    }
     // The first face's kind is the file's; a chunk whose faces begin otherwise is mixed there.
     let kind = parts.iter().find_map(|p| p.first.map(|(k, _)| k));
     let mixed = parts.iter().find_map(|p| match p.first {
@@ -288,6 +338,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Obj, ObjError> {
         _ => p.mixed,
     });
     let sum = |f: fn(&Obj) -> usize| parts.iter().map(|p| f(&p.obj)).sum::<usize>();
+    let replaced = parts.iter().map(|p| p.replaced).sum();
     let mut obj = Obj {
         positions: Vec::with_capacity(total.positions),
         normals: Vec::with_capacity(total.normals),
@@ -296,6 +347,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Obj, ObjError> {
         normal_triangles: Vec::with_capacity(sum(|o| o.normal_triangles.len())),
         uv_triangles: Vec::with_capacity(sum(|o| o.uv_triangles.len())),
         mixed,
+        replaced,
     };
     // Each chunk's arrays are freed as soon as they are copied: the peak holds the result and
     // one chunk.
@@ -339,26 +391,31 @@ mod tests {
         assert_eq!(o.triangles, [[0, 1, 2], [0, 2, 3], [0, 2, 3], [1, 4, 5], [1, 5, 2], [1, 2, 0]]);
         assert_eq!(o.uv_triangles[2], [0, 2, 3], "negative indices count back from the line");
         assert_eq!(o.uv_triangles[3], [1, 4, 4]);
+        assert_eq!(o.normal_triangles.len(), 6);
         assert!(o.normal_triangles.iter().all(|t| *t == [0, 0, 0]));
-        assert_eq!(o.mixed, None);
+        assert_eq!((o.mixed, o.replaced), (None, 0));
     }
 
     #[test]
     fn the_result_does_not_depend_on_where_the_file_is_cut() {
-        // Every cut of the sample into up to 40 chunks gives the same arrays as one chunk.
-        let whole = parse(SAMPLE.as_bytes()).unwrap();
+        // Every cut of the sample into up to 40 chunks gives the same arrays as one chunk, and a
+        // file with bad lines in several chunks always reports the first.
+        let whole = parse_in(SAMPLE.as_bytes(), 1).unwrap();
         for parts in 1..40 {
-            let pieces = chunks(SAMPLE.as_bytes(), parts);
-            assert_eq!(pieces.concat(), SAMPLE.as_bytes());
-            let counts: Vec<Counts> = pieces.iter().map(|c| count(c)).collect();
-            let total = counts.iter().fold(Counts::default(), |a, c| a.add(*c));
-            let mut at = Counts::default();
-            let mut triangles = Vec::new();
-            for (p, c) in pieces.iter().zip(&counts) {
-                triangles.extend(read(p, at, total).unwrap().obj.triangles);
-                at = at.add(*c);
-            }
-            assert_eq!(triangles, whole.triangles, "{parts} parts");
+            assert_eq!(chunks(SAMPLE.as_bytes(), parts).concat(), SAMPLE.as_bytes());
+            assert_eq!(parse_in(SAMPLE.as_bytes(), parts).unwrap(), whole, "{parts} parts");
+        }
+        let bad =
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".repeat(50) + "v 0 0 x\n" + &"f 1 2 3\n".repeat(50) + "v 0 y 0\n";
+        for parts in 1..40 {
+            let e = parse_in(bad.as_bytes(), parts).unwrap_err();
+            assert_eq!((e.line, e.message.contains("found `x`")), (201, true), "{parts} parts: {e:?}");
+        }
+        let mixed = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n".to_owned()
+            + &"f 1//1 2//1 3//1\n".repeat(30)
+            + &"f 1 2 3\n".repeat(30);
+        for parts in 1..40 {
+            assert_eq!(parse_in(mixed.as_bytes(), parts).unwrap().mixed, Some(35), "{parts} parts");
         }
     }
 
@@ -371,7 +428,11 @@ mod tests {
             ("v 0 0 1e39\n", 1, "not a finite number"),
             ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", 4, "the face names vertex 4, but there are 3 in the file"),
             ("v 0 0 0\nf 0 1 1\n", 2, "vertex indices start at 1"),
-            ("v 0 0 0\nf -2 1 1\n", 2, "the face names vertex -2, but there is 1 in the file"),
+            ("v 0 0 0\nf -2 1 1\n", 2, "the face names vertex -2, but there is 1 before this line"),
+            ("v 0 0 0 0\n", 1, "a weight `w` of 0"),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 \\\n 3\n", 4, "line continuations"),
+            ("v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r", 1, "carriage return alone"),
+            ("vt 0\nvt\n", 2, "`vt` needs 1 number, found 0"),
             ("v 0 0 0\nf 1/x 1 1\n", 2, "expected a texture coordinate index, found `x`"),
             ("v 0 0 0\nvt 0 0\nvn 0 0 1\nf 1/1/1/1 1 1\n", 4, "at most three indices"),
             ("v 0 0 0\nf /1 1 1\n", 2, "needs a vertex index"),
@@ -381,6 +442,16 @@ mod tests {
             assert_eq!(e.line, line, "{text:?}: {e:?}");
             assert!(e.message.contains(message), "{text:?}: {}", e.message);
         }
+    }
+
+    #[test]
+    fn quirks_of_real_files_are_read_as_meant() {
+        // A UTF-8 byte-order mark, homogeneous coordinates, vertex colours, `nan` normals.
+        let o =
+            parse(b"\xEF\xBB\xBFv 2 4 6 2\nv 1 0 0 0.1 0.2 0.3\nv 0 1 0\nvn nan nan nan\nvt 0 inf\nf 1 2 3\n").unwrap();
+        assert_eq!(o.positions, [Vec3::new(1.0, 2.0, 3.0), Vec3::X, Vec3::Y]);
+        assert_eq!((o.normals[0], o.uvs[0], o.replaced), (Vec3::ZERO, Vec2::ZERO, 2));
+        assert_eq!(o.triangles, [[0, 1, 2]]);
     }
 
     #[test]

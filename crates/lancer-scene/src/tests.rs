@@ -375,10 +375,9 @@ fn load_mesh_bytes(obj: &[u8]) -> Result<crate::Loaded, crate::LoadError> {
 
 #[test]
 fn regression_faces_that_mix_corner_kinds_load_flat_with_a_warning() {
-    // With separate index lists, tobj fills a corner's missing normal from another corner's: a
-    // file mixing `f 1//1 ...` and `f 4 5 6` would load with made-up normals. Refusing it
-    // refused real files (an exporter's raft with `v/vt` faces after plain ones): it loads
-    // with positions only.
+    // A file mixing `f 1//1 ...` and `f 4 5 6` has no normal for some corners: filling them
+    // from other corners would make normals up, and refusing it refused real files (an
+    // exporter's raft with `v/vt` faces after plain ones): it loads with positions only.
     let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 3 4\n";
     let l = load_mesh(obj).unwrap_or_else(|e| panic!("{e}"));
     match l.scene.world.query::<&Shape>().iter().next().unwrap() {

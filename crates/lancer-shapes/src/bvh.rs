@@ -42,7 +42,7 @@ pub struct Bvh {
 
 const BINS: usize = 12;
 const MAX_LEAF: usize = 4;
-/// The binary tree's greatest depth; the 4-wide tree is no deeper, and each of its levels leaves
+/// The greatest depth of the binary splits; the 4-wide tree is no deeper, and each of its levels leaves
 /// at most three entries on the traversal stack.
 const MAX_DEPTH: usize = 64;
 /// The traversal stack's size: room for three entries per level and the root.
@@ -126,7 +126,8 @@ impl Node4 {
     /// `inv_d` splatted per axis), and a bit mask of the children it meets: four slab tests in
     /// one pass of SIMD arithmetic. On an axis the ray goes down (`back`), a box's upper face is
     /// the near one: the same distances as taking the smaller of both faces', and an empty slot
-    /// (an inverted box) is entered at +∞, so it is never met. On an axis the ray does not move
+    /// (an inverted box) is entered at +∞, so it is not met (a ray with a NaN or infinite
+    /// coordinate may 'meet' one: it holds no item, so nothing is visited). On an axis the ray does not move
     /// along (`flat`), a child is met where the origin lies within its slab, faces included.
     #[inline]
     fn enter(
@@ -256,7 +257,8 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize, step: f32) -> Option<(
         }
     }
     let area = extent.bounds.half_area();
-    if best == 0 || (n <= MAX_LEAF && best_cost + step * area >= area * n as f32) {
+    // (`area · (n − step)`: with `step` 0, exactly the plain SAH test, also for an infinite area.)
+    if best == 0 || (n <= MAX_LEAF && best_cost >= area * (n as f32 - step)) {
         return None;
     }
     // Partition in place, in one pass.
@@ -281,11 +283,12 @@ struct Kid {
 }
 
 /// Builds the 4-wide node over `items` (at `offset` in the whole item list), split as `split`
-/// says, and its subtree, appending them to `out` in preorder; returns the node's index. The
-/// node's children are the split's two halves, the widest (by surface area) of those that
-/// split again replaced by its halves until there are four: the binary SAH tree collapsed, built
-/// without it. Inner children of large nodes are built on several threads into their own lists,
-/// appended in order: the tree is the same whatever the number of threads.
+/// says, and its subtree, appending them to `out` (in preorder for a small range; a large one's
+/// node goes after its subtrees); returns the node's index. The node's children are the split's
+/// two halves, the widest (by surface area) of those that split again replaced by its halves
+/// until there are four: the binary SAH tree collapsed, built without it. Inner children of
+/// large nodes are built on several threads into their own lists, appended in order: the tree
+/// is the same whatever the number of threads.
 fn build(
     items: &mut [Item],
     offset: usize,
@@ -506,15 +509,21 @@ mod tests {
         assert!(seen.iter().all(|&s| s), "every box contains the ray's path");
     }
 
+    /// A tree as plain numbers: each node's links and box bits, the leaf items, the root.
+    type Layout = (Vec<[u32; 8]>, Vec<[u32; 24]>, Vec<u32>, u32);
+
     /// The tree as plain numbers, for comparing two builds.
-    fn layout(b: &Bvh) -> (Vec<[u32; 8]>, Vec<[f32; 24]>, Vec<u32>) {
+    fn layout(b: &Bvh) -> Layout {
         let links = b.nodes.iter().map(|n| [n.child, n.count].concat().try_into().unwrap()).collect();
         let boxes = b
             .nodes
             .iter()
-            .map(|n| n.min.iter().chain(&n.max).flat_map(|v| v.to_array()).collect::<Vec<_>>().try_into().unwrap())
+            .map(|n| {
+                let bits = n.min.iter().chain(&n.max).flat_map(|v| v.to_array()).map(f32::to_bits);
+                bits.collect::<Vec<_>>().try_into().unwrap()
+            })
             .collect();
-        (links, boxes, b.indices.clone())
+        (links, boxes, b.indices.clone(), b.root)
     }
 
     #[test]

@@ -70,8 +70,9 @@ const TRIANGLE_STEP: f32 = 0.5;
 struct Sheared {
     o: Vec3,
     /// `e_kx − s_x e_kz`, `e_ky − s_y e_kz` and `s_z e_kz`: a corner's sheared coordinates are
-    /// its offset from `o` dotted with these (the products with 0 add nothing, so each is
-    /// exactly `p[kx] − s_x p[kz]`, `p[ky] − s_y p[kz]` and `s_z p[kz]`).
+    /// its offset from `o` dotted with these (the products with 0 add nothing, so for finite
+    /// input each has the value of `p[kx] − s_x p[kz]`, `p[ky] − s_y p[kz]` and `s_z p[kz]`, up
+    /// to the sign of a zero).
     rows: [Vec3; 3],
 }
 
@@ -324,6 +325,37 @@ pub(crate) mod tests {
         // Through a vertex and along shared edges: never slips through.
         for o in [Vec3::new(0.0, 0.0, -5.0), Vec3::new(0.3, 0.0, -5.0), Vec3::new(0.0, -0.4, -5.0)] {
             assert!(m.intersect(o, Vec3::Z, 0.0, f32::INFINITY).is_some(), "{o}");
+        }
+    }
+
+    #[test]
+    fn a_mesh_built_on_several_threads_gives_the_brute_force_hits() {
+        // A rippled grid of 2 · 130 · 130 triangles: more than the build splits on two threads,
+        // so the root is not the first node and subtrees were appended from several lists.
+        let n = 130;
+        let mut positions = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, z) = (i as f32 / n as f32 * 4.0 - 2.0, j as f32 / n as f32 * 4.0 - 2.0);
+                positions.push(Vec3::new(x, 0.2 * (3.0 * x).sin() * (2.0 * z).cos(), z));
+            }
+        }
+        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        let mut triangles = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        let m = Mesh::new(positions, Vec::new(), Vec::new(), triangles).unwrap();
+        for k in 0..64 {
+            let f = k as f32 / 64.0;
+            let o = Vec3::new(-2.5 + 5.0 * f, 3.0, -2.5 + 3.0 * (f * 7.0).fract());
+            let d = (Vec3::new(2.0 * (f * 3.0).fract() - 1.0, -1.5, 0.7) - 0.3 * Vec3::X).normalize();
+            let fast = m.intersect(o, d, 0.0, f32::INFINITY).map(|h| h.t);
+            assert_eq!(fast, m.intersect_brute_force(o, d, 0.0, f32::INFINITY), "ray {k}");
+            assert_eq!(fast.is_some(), m.occludes(o, d, f32::INFINITY), "ray {k}");
         }
     }
 
