@@ -57,6 +57,17 @@ const NUMBERS: &[&str] = &[
 
 /// Tokens and tables a mutation inserts.
 const JUNK: &[&str] = &[
+    // OBJ lines and pieces (for the mesh files), then TOML.
+    "f 1 2 3",
+    "f -1 -2 -3",
+    "f 1/1/1 2/2/2 3/3/3 4/4/4",
+    "f 0 0 0",
+    "v 1e30 -1e30 0",
+    "vn 0 0 0",
+    "vt",
+    "//",
+    "\\",
+    "\r",
     "]",
     "[",
     "{",
@@ -168,6 +179,7 @@ pub fn run(args: &[String]) -> Result<()> {
         .into_iter()
         .map(|p| std::fs::read_to_string(&p).map(|s| (p, s)))
         .collect::<Result<_, _>>()?;
+    let with_meshes: Vec<usize> = (0..seeds.len()).filter(|&k| seeds[k].1.contains(".obj")).collect();
     let out_dir = crate::root().join("target/fuzz");
     // Panics are caught and counted; their messages would drown the report.
     let default_hook = std::panic::take_hook();
@@ -176,9 +188,14 @@ pub fn run(args: &[String]) -> Result<()> {
     let mut tally = Tally::default();
     for i in 0..runs {
         let mut rng = fastrand::Rng::with_seed(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ i);
-        let (path, text) = &seeds[rng.usize(..seeds.len())];
-        let mutated = mutate(&mut rng, text);
-        let outcome = run_case(path, mutated.clone());
+        // One case in ten keeps a scene with meshes as it is and mutates its OBJ files instead.
+        let meshes = (!with_meshes.is_empty() && rng.usize(..10) == 0).then(|| rng.u64(..));
+        let (path, text) = match meshes {
+            Some(_) => &seeds[with_meshes[rng.usize(..with_meshes.len())]],
+            None => &seeds[rng.usize(..seeds.len())],
+        };
+        let mutated = if meshes.is_some() { text.clone() } else { mutate(&mut rng, text) };
+        let outcome = run_case(path, mutated.clone(), meshes);
         tally.count(&outcome);
         if let (Outcome::LoadError(kind), true) = (&outcome, std::env::var_os("LANCER_FUZZ_ERRORS").is_some()) {
             println!("refused: {kind}");
@@ -186,7 +203,11 @@ pub fn run(args: &[String]) -> Result<()> {
         if let Outcome::Failure(why) = &outcome {
             std::fs::create_dir_all(&out_dir)?;
             let file = out_dir.join(format!("seed{seed}-case{i}.toml"));
-            std::fs::write(&file, format!("# {why}\n# mutated from {}\n{mutated}", path.display()))?;
+            let how = match meshes {
+                Some(m) => format!("its OBJ files mutated with seed {m}"),
+                None => "mutated".to_owned(),
+            };
+            std::fs::write(&file, format!("# {why}\n# {how} from {}\n{mutated}", path.display()))?;
             eprintln!("case {i}: {why} -> {}", file.display());
             if why.starts_with("hang") {
                 // The case's thread cannot be stopped: report and leave.
@@ -322,13 +343,13 @@ fn number_spans(line: &str) -> Vec<(usize, usize)> {
 }
 
 /// Loads, prepares and renders `text` (as the scene at `path`, reading its files from its
-/// folder) on a worker thread, within [`HANG`].
-fn run_case(path: &Path, text: String) -> Outcome {
+/// folder, its OBJ files mutated when `meshes` gives a seed) on a worker thread, within [`HANG`].
+fn run_case(path: &Path, text: String, meshes: Option<u64>) -> Outcome {
     let (tx, rx) = mpsc::channel();
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let name = path.display().to_string();
     std::thread::spawn(move || {
-        let result = std::panic::catch_unwind(|| case(&dir, &name, &text));
+        let result = std::panic::catch_unwind(|| case(&dir, &name, &text, meshes));
         let _ = tx.send(result.unwrap_or_else(|e| {
             let msg = e
                 .downcast_ref::<String>()
@@ -344,7 +365,7 @@ fn run_case(path: &Path, text: String) -> Outcome {
     }
 }
 
-fn case(dir: &Path, name: &str, text: &str) -> Outcome {
+fn case(dir: &Path, name: &str, text: &str, meshes: Option<u64>) -> Outcome {
     // Files as the command line reads them: regular files only, at most 64 MB here.
     let resolve = |rel: &str| -> Result<Vec<u8>, String> {
         let p = dir.join(rel);
@@ -352,7 +373,14 @@ fn case(dir: &Path, name: &str, text: &str) -> Outcome {
         if !meta.is_file() || meta.len() > 64_000_000 {
             return Err("not a regular file under the limit".into());
         }
-        std::fs::read(&p).map_err(|e| e.to_string())
+        let bytes = std::fs::read(&p).map_err(|e| e.to_string())?;
+        Ok(match (meshes, rel.ends_with(".obj")) {
+            (Some(seed), true) => {
+                let mut rng = fastrand::Rng::with_seed(seed);
+                mutate(&mut rng, &String::from_utf8_lossy(&bytes)).into_bytes()
+            }
+            _ => bytes,
+        })
     };
     let registry = Registry::with_builtins();
     let loaded = match lancer_scene::load_scene_with(text, name, &registry, &resolve) {
