@@ -261,15 +261,24 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize, step: f32) -> Option<(
     if best == 0 || (n <= MAX_LEAF && best_cost >= area * (n as f32 - step)) {
         return None;
     }
-    // Partition in place, in one pass.
-    let mut mid = 0;
-    for k in 0..items.len() {
-        if bin_of(items[k].centre()) < best {
-            items.swap(k, mid);
-            mid += 1;
+    // Partition in place, in one pass from both ends: only misplaced pairs are swapped.
+    let left = |i: &Item| bin_of(i.centre()) < best;
+    let (mut lo, mut hi) = (0, items.len());
+    loop {
+        while lo < hi && left(&items[lo]) {
+            lo += 1;
         }
+        while lo < hi && !left(&items[hi - 1]) {
+            hi -= 1;
+        }
+        if lo >= hi {
+            break;
+        }
+        items.swap(lo, hi - 1);
+        lo += 1;
+        hi -= 1;
     }
-    Some((mid, best_left, right[best].0))
+    Some((lo, best_left, right[best].0))
 }
 
 /// A child of a 4-wide node during the build: its items (a range of the node's), their extent,
