@@ -172,15 +172,35 @@ fn numbers<const N: usize>(rest: &[u8], min: usize, what: &str) -> Result<([f32;
     Ok((out, given))
 }
 
+/// A whole number written in ASCII digits with an optional sign (`None` for anything else, or
+/// past ±10¹⁸): faces hold most of a file's words, and this is their only parse.
+fn integer(field: &[u8]) -> Option<i64> {
+    let (negative, digits) = match field.split_first()? {
+        (b'-', rest) => (true, rest),
+        (b'+', rest) => (false, rest),
+        _ => (false, field),
+    };
+    if digits.is_empty() || digits.len() > 18 {
+        return None;
+    }
+    let mut value = 0i64;
+    for &d in digits {
+        if !d.is_ascii_digit() {
+            return None;
+        }
+        value = value * 10 + (d - b'0') as i64;
+    }
+    Some(if negative { -value } else { value })
+}
+
 /// One index of a corner: from 1, or negative counting back from the last element before the
 /// line (`before`), checked against the `total` in the file. `None` for an empty field.
 fn index(field: &[u8], before: usize, total: usize, what: &str) -> Result<Option<u32>, String> {
     if field.is_empty() {
         return Ok(None);
     }
-    let text = std::str::from_utf8(field).unwrap_or("");
-    let i: i64 =
-        text.parse().map_err(|_| format!("expected a {what} index, found `{}`", String::from_utf8_lossy(field)))?;
+    let i =
+        integer(field).ok_or_else(|| format!("expected a {what} index, found `{}`", String::from_utf8_lossy(field)))?;
     let at = match i {
         0 => return Err(format!("{what} indices start at 1 (or count back from -1), found 0")),
         i if i > 0 => i - 1,
@@ -441,6 +461,16 @@ mod tests {
             let e = parse(text.as_bytes()).unwrap_err();
             assert_eq!(e.line, line, "{text:?}: {e:?}");
             assert!(e.message.contains(message), "{text:?}: {}", e.message);
+        }
+    }
+
+    #[test]
+    fn integers_are_read_as_rust_reads_them() {
+        for text in ["0", "7", "-3", "+12", "000042", "123456789012345678", "-1"] {
+            assert_eq!(integer(text.as_bytes()), text.parse::<i64>().ok(), "{text}");
+        }
+        for text in ["", "-", "+", "1.5", "1e3", "x", "--1", "1234567890123456789", " 1"] {
+            assert_eq!(integer(text.as_bytes()), None, "{text}");
         }
     }
 
