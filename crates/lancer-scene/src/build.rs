@@ -7,7 +7,7 @@ use std::ops::Range;
 use glam::{Affine3A, Mat3, Vec3};
 use lancer_core::{Camera, ImageSettings, Light, Material, MaterialOf, Meta, Pattern, Scene, Texture, Transform};
 use lancer_shading::{ParamValue, Params, Pipeline, Registry};
-use lancer_shapes::{CsgNode, CsgOp, Mesh, Shape};
+use lancer_shapes::{CsgNode, CsgOp, Mesh, MeshError, Shape};
 use toml::Spanned;
 
 use crate::doc::{
@@ -469,24 +469,19 @@ impl Meshes {
                 ),
             ));
         }
-        let (positions, normals, uvs, mut triangles) = one_index(obj);
-        // Renderers skip triangles with no area (real files have a few): say how many.
+        let (positions, normals, uvs, triangles) = one_index(obj);
         let before = triangles.len();
-        triangles.retain(|t| {
-            let corner = |i: u32| positions.get(i as usize).copied();
-            match (corner(t[0]), corner(t[1]), corner(t[2])) {
-                (Some(a), Some(b), Some(c)) => !lancer_shapes::degenerate(a, b, c),
-                // The reader checked every index; Mesh::new would say which, were one out of range.
-                _ => true,
-            }
-        });
-        let skipped = before - triangles.len();
         if before == 0 {
             return Err(bad("the file has no faces (`f` lines): nothing to render".into()));
         }
-        if skipped == before {
-            return Err(bad(format!("every triangle ({before}) is degenerate (its corners are on one line)")));
-        }
+        // Renderers skip triangles with no area (real files have a few): say how many.
+        let (mesh, skipped) = match Mesh::skipping_degenerate(positions, normals, uvs, triangles) {
+            Ok(built) => built,
+            Err(MeshError::Empty) => {
+                return Err(bad(format!("every triangle ({before}) is degenerate (its corners are on one line)")));
+            }
+            Err(e) => return Err(bad(e.to_string())),
+        };
         if skipped > 0 {
             warnings.push(cx.warn(
                 path.span(),
@@ -497,7 +492,7 @@ impl Meshes {
                 ),
             ));
         }
-        let mesh = std::sync::Arc::new(Mesh::new(positions, normals, uvs, triangles).map_err(|e| bad(e.to_string()))?);
+        let mesh = std::sync::Arc::new(mesh);
         self.by_path.insert(path.get_ref().clone(), mesh.clone());
         Ok(mesh)
     }

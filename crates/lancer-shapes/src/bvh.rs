@@ -38,6 +38,8 @@ pub struct Bvh {
     items: usize,
     /// The root node's index.
     root: u32,
+    /// The box of every item.
+    bounds: Aabb,
 }
 
 const BINS: usize = 12;
@@ -80,12 +82,24 @@ impl Bvh {
             }
         };
         nodes.shrink_to_fit();
-        Bvh { nodes, indices: items.into_iter().map(|i| i.index).collect(), ordered: false, items: n, root }
+        Bvh {
+            nodes,
+            indices: items.into_iter().map(|i| i.index).collect(),
+            ordered: false,
+            items: n,
+            root,
+            bounds: extent.bounds,
+        }
     }
 
     /// Number of items.
     pub fn len(&self) -> usize {
         self.items
+    }
+
+    /// The box of every item.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
     }
 
     /// Whether the hierarchy holds no item.

@@ -18,5 +18,5 @@ pub use aabb::Aabb;
 pub use bvh::Bvh;
 pub use csg::{Csg, CsgNode, CsgOp, Span, combine};
 pub use geometry::{Geometry, Hit, NO_SKIP, Object, Origin, invertible};
-pub use mesh::{Mesh, MeshError, degenerate};
+pub use mesh::{Mesh, MeshError};
 pub use shape::{LocalSurface, Shape, ShapeHit};

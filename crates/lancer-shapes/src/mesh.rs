@@ -122,8 +122,8 @@ impl Sheared {
 }
 
 /// Whether the triangle `a b c` has (nearly) no area: its corners on one line, to single
-/// precision. [`Mesh::new`] refuses such triangles; a loader may skip them.
-pub fn degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
+/// precision. [`Mesh::new`] refuses such triangles; [`Mesh::skipping_degenerate`] leaves them out.
+fn degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
     let area2 = (b - a).cross(c - a).length();
     let scale = (b - a).length().max((c - a).length()).max((c - b).length());
     area2.is_nan() || area2 <= 1e-7 * scale * scale
@@ -131,16 +131,36 @@ pub fn degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
 
 impl Mesh {
     /// A mesh from vertex positions, optional per-vertex normals and texture coordinates (empty
-    /// for none), and triangles as vertex indices.
+    /// for none), and triangles as vertex indices. A triangle with no area is an error.
     pub fn new(
         positions: Vec<Vec3>,
         normals: Vec<Vec3>,
         uvs: Vec<Vec2>,
         triangles: Vec<[u32; 3]>,
     ) -> Result<Mesh, MeshError> {
-        if triangles.is_empty() {
-            return Err(MeshError::Empty);
-        }
+        Mesh::build(positions, normals, uvs, triangles, false).map(|(mesh, _)| mesh)
+    }
+
+    /// As [`Mesh::new`], leaving out the triangles with no area (as renderers do with real
+    /// files) and saying how many: `Err(MeshError::Empty)` when none is left.
+    pub fn skipping_degenerate(
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        uvs: Vec<Vec2>,
+        triangles: Vec<[u32; 3]>,
+    ) -> Result<(Mesh, usize), MeshError> {
+        Mesh::build(positions, normals, uvs, triangles, true)
+    }
+
+    /// Checks the arrays in one pass (degenerate triangles refused, or with `skip` left out and
+    /// counted), then orients, builds the BVH and lays the triangles out in its leaf order.
+    fn build(
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        uvs: Vec<Vec2>,
+        mut triangles: Vec<[u32; 3]>,
+        skip: bool,
+    ) -> Result<(Mesh, usize), MeshError> {
         let n = positions.len();
         for (what, got) in [("normals", normals.len()), ("texture coordinates", uvs.len())] {
             if got != 0 && got != n {
@@ -150,23 +170,42 @@ impl Mesh {
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(MeshError::NonFinite(i));
         }
-        for (k, tri) in triangles.iter().enumerate() {
+        let before = triangles.len();
+        let mut problem = None;
+        let mut k = 0;
+        triangles.retain(|tri| {
+            let at = k;
+            k += 1;
+            if problem.is_some() {
+                return true;
+            }
             if let Some(&index) = tri.iter().find(|&&i| i as usize >= n) {
-                return Err(MeshError::IndexOutOfRange { triangle: k, index, vertices: n });
+                problem = Some(MeshError::IndexOutOfRange { triangle: at, index, vertices: n });
+                return true;
             }
             let [a, b, c] = tri.map(|i| positions[i as usize]);
-            if degenerate(a, b, c) {
-                return Err(MeshError::Degenerate(k));
+            if !degenerate(a, b, c) {
+                return true;
             }
+            if !skip {
+                problem = Some(MeshError::Degenerate(at));
+            }
+            !skip
+        });
+        if let Some(e) = problem {
+            return Err(e);
         }
+        if triangles.is_empty() {
+            return Err(MeshError::Empty);
+        }
+        let skipped = before - triangles.len();
         // Windings first: the edge sort and the triangle boxes are not in memory at once.
-        let mut triangles = triangles;
         let closed = crate::topology::orient(&positions, &mut triangles);
         let triangle_box = |t: &[u32; 3]| {
             t.iter().fold(Aabb::EMPTY, |b, &i| b.union(Aabb { min: positions[i as usize], max: positions[i as usize] }))
         };
         let mut bvh = Bvh::build_with(triangles.len(), |k| triangle_box(&triangles[k]), TRIANGLE_STEP);
-        let bounds = triangles.iter().fold(Aabb::EMPTY, |a, t| a.union(triangle_box(t)));
+        let bounds = bvh.bounds();
         // Triangles in the order the BVH's leaves visit them: no lookup per triangle.
         let order = bvh.into_leaf_order();
         let sorted: Vec<[u32; 3]> = order.par_iter().map(|&i| triangles[i as usize]).collect();
@@ -175,7 +214,7 @@ impl Mesh {
         drop((order, triangles));
         let corners = sorted.par_iter().map(|t| t.map(|i| positions[i as usize])).collect();
         let triangles = sorted;
-        Ok(Mesh { bvh, positions, normals, uvs, triangles, corners, bounds, closed })
+        Ok((Mesh { bvh, positions, normals, uvs, triangles, corners, bounds, closed }, skipped))
     }
 
     /// Vertex positions.
@@ -357,6 +396,20 @@ pub(crate) mod tests {
             assert_eq!(fast, m.intersect_brute_force(o, d, 0.0, f32::INFINITY), "ray {k}");
             assert_eq!(fast.is_some(), m.occludes(o, d, f32::INFINITY), "ray {k}");
         }
+    }
+
+    #[test]
+    fn degenerate_triangles_are_refused_or_skipped_and_counted() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, 2.0 * Vec3::X];
+        let t = vec![[0, 1, 2], [0, 1, 3]];
+        assert_eq!(Mesh::new(p.clone(), vec![], vec![], t.clone()).unwrap_err(), MeshError::Degenerate(1));
+        let (m, skipped) = Mesh::skipping_degenerate(p.clone(), vec![], vec![], t).unwrap();
+        assert_eq!((m.triangle_count(), skipped), (1, 1));
+        assert_eq!(m.bounds(), Aabb { min: Vec3::ZERO, max: Vec3::new(1.0, 1.0, 0.0) });
+        let flat = Mesh::skipping_degenerate(p.clone(), vec![], vec![], vec![[0, 1, 3]]);
+        assert_eq!(flat.unwrap_err(), MeshError::Empty);
+        let out = Mesh::skipping_degenerate(p, vec![], vec![], vec![[0, 1, 3], [0, 1, 9]]);
+        assert_eq!(out.unwrap_err(), MeshError::IndexOutOfRange { triangle: 1, index: 9, vertices: 4 });
     }
 
     #[test]
