@@ -95,8 +95,8 @@ fn index_matched_glass_is_invisible() {
                  material = { ambi = 0, diff = 0, spec = 0, alpha = 1, n = 1 }\n\
                  [[objects]]\nshape = \"cube\"\nscale = 0.5\nrotate = [0, 40, 0]\ntranslate = [1.6, 0.5, -1]\n\
                  material = { ambi = 0, diff = 0, spec = 0, alpha = 1, n = 1 }\n";
-    let without = render(&load(base), None, 2).beauty();
-    let with = render(&load(&format!("{base}{glass}")), None, 2).beauty();
+    let without = render(&load(base), None, 2).beauty;
+    let with = render(&load(&format!("{base}{glass}")), None, 2).beauty;
     let worst = without.iter().zip(&with).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0f32, f32::max);
     // Rays through the glass restart from offset exit points, so values may differ by rounding.
     assert!(worst < 1e-4, "largest difference {worst}");

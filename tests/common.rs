@@ -27,8 +27,15 @@ pub fn load_file(path: &Path) -> Loaded {
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// Renders at `width` (height keeping the scene's aspect ratio) on `threads` threads.
+/// Renders at `width` (height keeping the scene's aspect ratio) on `threads` threads, keeping
+/// every term's image.
 pub fn render(loaded: &Loaded, width: Option<u32>, threads: usize) -> Frame {
+    render_with(loaded, width, threads, true)
+}
+
+/// As [`render`], keeping the per-term images only with `layers` (as `lancer render` does with
+/// `--aov`).
+pub fn render_with(loaded: &Loaded, width: Option<u32>, threads: usize, layers: bool) -> Frame {
     let mut image = loaded.scene.image;
     if let Some(w) = width {
         image.height = ((w as f64 * image.height as f64 / image.width as f64).round() as u32).max(1);
@@ -42,7 +49,7 @@ pub fn render(loaded: &Loaded, width: Option<u32>, threads: usize) -> Frame {
             &loaded.scene.camera,
             &image,
             &loaded.pipeline,
-            RenderOptions::default(),
+            RenderOptions { layers, ..RenderOptions::default() },
         )
     })
 }

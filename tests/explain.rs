@@ -14,7 +14,7 @@ fn every_pixel_matches(scene: &str, width: u32, samples: u32) -> Vec<PixelExplan
     let mut image = loaded.scene.image;
     (image.width, image.height) = (frame.width, frame.height);
     let prepared = lancer_shading::prepare(&loaded.scene).unwrap();
-    let beauty = frame.beauty();
+    let beauty = &frame.beauty;
     let mut out = Vec::new();
     for y in 0..frame.height {
         for x in 0..frame.width {

@@ -1,7 +1,7 @@
 //! Invariants every render keeps: each term adds exactly its own image to the beauty image, the
 //! thread count changes no bit, and nothing is NaN (the last two on every scene in `scenes/`).
 
-use lancer_tests::{load_file, render, scene_files};
+use lancer_tests::{load_file, render, render_with, scene_files};
 
 /// `src` with its model's `terms = [...]` line replaced by `terms`.
 fn with_terms(src: &str, terms: &[&str]) -> String {
@@ -23,10 +23,10 @@ fn each_term_adds_exactly_its_own_image_to_beauty() {
     for scene in ["scenes/showcase.toml", "scenes/glass.toml", "scenes/coloured-lights.toml"] {
         let src = std::fs::read_to_string(lancer_tests::root().join(scene)).unwrap();
         let full = render(&lancer_tests::load(&with_terms(&src, &terms)), Some(64), 2);
-        let beauty = full.beauty();
+        let beauty = &full.beauty;
         for k in terms {
             let rest: Vec<&str> = terms.iter().copied().filter(|t| *t != k).collect();
-            let without = render(&lancer_tests::load(&with_terms(&src, &rest)), Some(64), 2).beauty();
+            let without = render(&lancer_tests::load(&with_terms(&src, &rest)), Some(64), 2).beauty;
             let layer = &full.layer(k).unwrap().pixels;
             for (i, ((b, w), l)) in beauty.iter().zip(&without).zip(layer).enumerate() {
                 assert!((*b - *w - *l).abs().max_element() <= 1e-5, "{scene}: without {k}, pixel {i}");
@@ -59,6 +59,22 @@ fn the_thread_count_changes_no_bit() {
 }
 
 #[test]
+fn the_beauty_image_is_the_sum_of_the_layers_and_the_same_bits_without_them() {
+    // The render sums each tile's layers into the beauty image as it goes, and keeps the layers
+    // only when asked: the same bits as summing the kept layers afterwards, on every scene.
+    let bits = |px: &[glam::Vec3]| px.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
+    for path in scene_files() {
+        let loaded = load_file(&path);
+        let with = render(&loaded, Some(72), 2);
+        let without = render_with(&loaded, Some(72), 2, false);
+        assert!(without.layers.is_empty() && !with.layers.is_empty(), "{}", path.display());
+        let summed = lancer_core::Frame::from_layers(with.width, with.height, with.layers.clone(), Default::default());
+        assert_eq!(bits(&with.beauty), bits(&summed.beauty), "{}: beauty is not the layers' sum", path.display());
+        assert_eq!(bits(&with.beauty), bits(&without.beauty), "{}: beauty differs without layers", path.display());
+    }
+}
+
+#[test]
 fn the_terms_list_decides_which_images_exist() {
     let path = lancer_tests::root().join("scenes/showcase.toml");
     let src = std::fs::read_to_string(&path).unwrap();
@@ -74,7 +90,7 @@ fn the_terms_list_decides_which_images_exist() {
     // Camera-ray ambient and diffuse do not depend on which other terms run.
     assert!(full.layer("ambient") == two.layer("ambient"), "ambient depends on the other terms");
     assert!(full.layer("diffuse") == two.layer("diffuse"), "diffuse depends on the other terms");
-    assert_ne!(full.beauty(), two.beauty());
+    assert_ne!(full.beauty, two.beauty);
 }
 
 #[test]

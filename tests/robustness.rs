@@ -406,7 +406,7 @@ material = { color = [1, 1, 1], ambi = 0, diff = 0, alpha = 1, n = 1 }
 "#;
         let files = [("ball.obj", uv_sphere_obj(smooth, 12, 24))];
         let frame = render(&load_with(src, &files), None, 2);
-        let beauty = frame.beauty();
+        let beauty = &frame.beauty;
         let off = beauty.iter().filter(|p| (**p - Vec3::new(0.4, 0.5, 0.6)).abs().max_element() > 1e-3).count();
         assert_eq!(off, 0, "smooth = {smooth}: {off} pixels are not the background");
     }

@@ -13,7 +13,7 @@ const WIDTH: u32 = 96;
 fn per_term_images_of_every_scene() {
     insta::glob!("../scenes", "**/*.toml", |path| {
         let frame = render(&load_file(path), Some(WIDTH), 2);
-        let beauty = frame.beauty();
+        let beauty = &frame.beauty;
         let png = |px: &[glam::Vec3]| lancer_cli::output::encode_png(frame.width, frame.height, px).unwrap();
 
         let lum = |p: &glam::Vec3| 0.2126 * p.x as f64 + 0.7152 * p.y as f64 + 0.0722 * p.z as f64;

@@ -407,7 +407,7 @@ fn case(dir: &Path, name: &str, text: &str, meshes: Option<u64>) -> Outcome {
         &loaded.scene.camera,
         &image,
         &loaded.pipeline,
-        RenderOptions::default(),
+        RenderOptions { layers: true, ..RenderOptions::default() },
     );
     for layer in &frame.layers {
         if let Some(i) = layer.pixels.iter().position(|p| !p.is_finite()) {

@@ -545,7 +545,14 @@ pub(crate) fn render_recording(
             &scene.camera,
             &scene.image,
             &pipeline,
-            RenderOptions { progress: Some(&progress), timing, part: args.tile, cancel: None },
+            RenderOptions {
+                progress: Some(&progress),
+                timing,
+                part: args.tile,
+                cancel: None,
+                // Per-term images only where they are written: --aov, or a part of a frame.
+                layers: args.aov.is_some() || args.tile.is_some(),
+            },
         )
     });
     let elapsed = start.elapsed();
@@ -559,7 +566,7 @@ pub(crate) fn render_recording(
         elapsed,
         threads: pool.current_num_threads(),
     };
-    let beauty = frame.beauty();
+    let beauty = &frame.beauty;
     pool.install(|| -> Result<()> {
         match args.tile {
             Some((index, count)) => {
@@ -688,7 +695,7 @@ fn merge(args: MergeArgs) -> Result<()> {
     if let Some(dir) = &args.aov {
         crate::output::create_output_dir(dir).context("creating the AOV directory")?;
     }
-    let beauty = frame.beauty();
+    let beauty = &frame.beauty;
     format.write(&args.output, frame.width, frame.height, &beauty)?;
     if let Some(dir) = &args.aov {
         let manifest = |files: &[String]| {

@@ -191,5 +191,5 @@ pub fn merge(paths: &[PathBuf], limit: u64) -> Result<(Frame, f64, String)> {
         seconds += p.header.seconds;
     }
     let described = format!("{} ({}x{}, {}, {} parts)", first.scene, w, h, first.model, first.count);
-    Ok((Frame { width: w, height: h, layers, stats }, seconds, described))
+    Ok((Frame::from_layers(w, h, layers, stats), seconds, described))
 }

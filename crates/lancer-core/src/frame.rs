@@ -106,22 +106,25 @@ pub struct Frame {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// The terms' images in model order, then the background layer.
+    /// The terms' images in model order, then the background layer; empty when the render was
+    /// not asked to keep them (`RenderOptions::layers` of the shading crate).
     pub layers: Vec<Layer>,
+    /// The beauty image: the sum of every layer, in layer order, in linear float.
+    pub beauty: Vec<Vec3>,
     /// How many rays the render traced.
     pub stats: RenderStats,
 }
 
 impl Frame {
-    /// The beauty image: the sum of every layer, in layer order, in linear float.
-    pub fn beauty(&self) -> Vec<Vec3> {
-        let mut out: Vec<Vec3> = bytemuck::zeroed_vec((self.width * self.height) as usize);
-        for layer in &self.layers {
-            for (o, p) in out.iter_mut().zip(&layer.pixels) {
+    /// A frame of these layers, with the beauty image summed from them.
+    pub fn from_layers(width: u32, height: u32, layers: Vec<Layer>, stats: RenderStats) -> Frame {
+        let mut beauty: Vec<Vec3> = bytemuck::zeroed_vec((width * height) as usize);
+        for layer in &layers {
+            for (o, p) in beauty.iter_mut().zip(&layer.pixels) {
                 *o += *p;
             }
         }
-        out
+        Frame { width, height, layers, beauty, stats }
     }
 
     /// The layer with this name.

@@ -127,7 +127,7 @@ pub fn explain_pixel(
     let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
     names.push(BACKGROUND.to_owned());
     let layers: Vec<(String, Vec3)> = names.into_iter().zip(scratch.accum.iter().map(|acc| acc[0])).collect();
-    // As `Frame::beauty` sums: from zero, layer after layer.
+    // As the render sums a tile into the beauty image: from zero, layer after layer.
     let mut beauty = Vec3::ZERO;
     for (_, v) in &layers {
         beauty += *v;

@@ -29,6 +29,9 @@ pub struct RenderOptions<'a> {
     /// Checked before each tile: once it is set the remaining tiles are skipped (the frame is
     /// then incomplete; the caller that set it throws it away).
     pub cancel: Option<&'a std::sync::atomic::AtomicBool>,
+    /// Keep every term's image ([`Frame::layers`]); without it the frame holds only the beauty
+    /// image, the same bits, in a sixth of the memory for a five-term model.
+    pub layers: bool,
 }
 
 /// The bands (rows of tiles, [`TILE`] pixels high, from the top) of part `index` of `count` of
@@ -66,8 +69,9 @@ pub fn render(scene: &Scene, pipeline: &Pipeline, options: RenderOptions<'_>) ->
 /// Renders an already prepared scene. The result is the same, bit for bit, whatever the number
 /// of threads: tiles are independent and each is processed in a fixed order.
 ///
-/// The frame's layers are allocated once and each band of tiles (a row of tiles: a contiguous
-/// run of every layer) writes its own part of them; a thread keeps its scratch buffers (the
+/// The beauty image (and the layers, when kept) are allocated once and each band of tiles (a
+/// row of tiles: a contiguous run of each image) writes its own part of them, the beauty image
+/// as each tile's layers summed in layer order; a thread keeps its scratch buffers (the
 /// tile's hecs world, chunk columns, the next generation's rays, the tile's accumulators) from
 /// tile to tile, so the steady state allocates nothing.
 pub fn render_prepared(
@@ -79,27 +83,36 @@ pub fn render_prepared(
 ) -> Frame {
     let (width, height) = (image.width, image.height);
     let ctx = shade_context(prepared, pipeline);
-    let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
-    names.push(BACKGROUND.to_owned());
-    let mut layers: Vec<Layer> =
-        // Zeroed by the system, page by page as the bands first write them: no pass over the
-        // whole frame before the render.
-        names.into_iter().map(|name| Layer { name, pixels: bytemuck::zeroed_vec((width * height) as usize) }).collect();
+    let pixels = (width * height) as usize;
+    // Zeroed by the system, page by page as the bands first write them: no pass over the whole
+    // frame before the render.
+    let mut layers: Vec<Layer> = if options.layers {
+        let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
+        names.push(BACKGROUND.to_owned());
+        names.into_iter().map(|name| Layer { name, pixels: bytemuck::zeroed_vec(pixels) }).collect()
+    } else {
+        Vec::new()
+    };
+    let mut beauty: Vec<Vec3> = bytemuck::zeroed_vec(pixels);
 
     if width == 0 || height == 0 {
-        return Frame { width, height, layers, stats: RenderStats::default() };
+        return Frame { width, height, layers, beauty, stats: RenderStats::default() };
     }
     let band_len = (TILE * width) as usize;
     let bands_count = height.div_ceil(TILE) as usize;
     let mut per_layer: Vec<_> = layers.iter_mut().map(|l| l.pixels.chunks_mut(band_len)).collect();
-    let mut bands: Vec<(usize, Vec<&mut [Vec3]>)> = (0..bands_count)
-        .map(|b| (b, per_layer.iter_mut().map(|chunks| chunks.next().expect("one chunk per band")).collect()))
+    let mut bands: Vec<(usize, &mut [Vec3], Vec<&mut [Vec3]>)> = beauty
+        .chunks_mut(band_len)
+        .enumerate()
+        .map(|(b, sum)| {
+            (b, sum, per_layer.iter_mut().map(|chunks| chunks.next().expect("one chunk per band")).collect())
+        })
         .collect();
     // Bands in a spread order (each band still writes only its own rows, so the frame is the
     // same): the tiles done at any moment sample the whole image, and the progress estimate
     // does not trust an easy sky for a costly floor.
     if let Some((index, count)) = options.part {
-        bands.retain(|(b, _)| *b as u32 % count.max(1) == index);
+        bands.retain(|(b, ..)| *b as u32 % count.max(1) == index);
     }
     let tiles_count = bands.len() * width.div_ceil(TILE) as usize;
     // One contiguous run of bands per thread (rayon splits the list in halves, so the first
@@ -110,7 +123,7 @@ pub fn render_prepared(
     let run_of = |b: usize| b * runs / bands_count;
     let run_start = |r: usize| (r * bands_count).div_ceil(runs);
     let ranks: Vec<Vec<usize>> = (0..runs).map(|r| spread_order(run_start(r + 1) - run_start(r))).collect();
-    bands.sort_by_key(|(b, _)| {
+    bands.sort_by_key(|(b, ..)| {
         let r = run_of(*b);
         (r, ranks[r][*b - run_start(r)])
     });
@@ -119,7 +132,7 @@ pub fn render_prepared(
         .into_par_iter()
         .map_init(
             || Scratch::new(pipeline.terms.len() + 1),
-            |scratch, (band, mut out)| {
+            |scratch, (band, sum, mut out)| {
                 let mut stats = RenderStats::default();
                 let y0 = band as u32 * TILE;
                 for x0 in (0..width).step_by(TILE as usize) {
@@ -129,12 +142,16 @@ pub fn render_prepared(
                     let tile = Tile { x0, y0, w: TILE.min(width - x0), h: TILE.min(height - y0) };
                     render_tile(&ctx, camera, image, pipeline, tile, scratch, None, options.timing, &mut stats);
                     let mut lap = Lap::new(options.timing);
-                    // The tile's pixels into the band's rows of every layer.
-                    for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
-                        for row in 0..tile.h as usize {
-                            let at = row * width as usize + x0 as usize;
-                            let src = &acc[row * tile.w as usize..(row + 1) * tile.w as usize];
-                            layer[at..at + tile.w as usize].copy_from_slice(src);
+                    // The tile's pixels into the band's rows of every layer kept, and their
+                    // sum, in layer order, into the beauty image.
+                    for row in 0..tile.h as usize {
+                        let (at, from) = (row * width as usize + x0 as usize, row * tile.w as usize);
+                        let span = from..from + tile.w as usize;
+                        for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
+                            layer[at..at + tile.w as usize].copy_from_slice(&acc[span.clone()]);
+                        }
+                        for (i, px) in sum[at..at + tile.w as usize].iter_mut().enumerate() {
+                            *px = scratch.accum.iter().fold(Vec3::ZERO, |s, acc| s + acc[from + i]);
                         }
                     }
                     lap.charge(&mut stats.times.chunks);
@@ -149,7 +166,7 @@ pub fn render_prepared(
             a += b;
             a
         });
-    Frame { width, height, layers, stats }
+    Frame { width, height, layers, beauty, stats }
 }
 
 /// For each of `n` items, its rank in an order that spreads over them (bit-reversed indices:

@@ -189,7 +189,13 @@ fn render_loop(shared: &Shared) {
                 &camera,
                 &image,
                 &pipeline,
-                RenderOptions { progress: Some(&progress), timing: false, part: None, cancel: Some(&cancel) },
+                RenderOptions {
+                    progress: Some(&progress),
+                    timing: false,
+                    part: None,
+                    cancel: Some(&cancel),
+                    layers: true,
+                },
             );
             if cancel.load(Ordering::SeqCst) {
                 break;
