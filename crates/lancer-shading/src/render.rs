@@ -101,7 +101,7 @@ pub fn render_prepared(
     let band_len = (TILE * width) as usize;
     let bands_count = height.div_ceil(TILE) as usize;
     let mut per_layer: Vec<_> = layers.iter_mut().map(|l| l.pixels.chunks_mut(band_len)).collect();
-    let mut bands: Vec<(usize, &mut [Vec3], Vec<&mut [Vec3]>)> = beauty
+    let mut bands: Vec<Band<'_>> = beauty
         .chunks_mut(band_len)
         .enumerate()
         .map(|(b, sum)| {
@@ -168,6 +168,10 @@ pub fn render_prepared(
         });
     Frame { width, height, layers, beauty, stats }
 }
+
+/// A band of tiles: its index (from the top), its rows of the beauty image, and of each layer
+/// kept.
+type Band<'a> = (usize, &'a mut [Vec3], Vec<&'a mut [Vec3]>);
 
 /// For each of `n` items, its rank in an order that spreads over them (bit-reversed indices:
 /// 0, n/2, n/4, 3n/4, ...), so any prefix of the order samples the whole range.
