@@ -586,10 +586,10 @@ pub(crate) fn render_recording(
                 };
                 crate::part::write(&args.output, &header, &frame)?;
             }
-            None => format.write(&args.output, frame.width, frame.height, &beauty)?,
+            None => format.write(&args.output, frame.width, frame.height, beauty)?,
         }
         if let Some(dir) = &args.aov {
-            write_aovs(dir, &frame, &beauty, args.aov_format, &|files| run.json(files))?;
+            write_aovs(dir, &frame, beauty, args.aov_format, &|files| run.json(files))?;
         }
         if let Some(path) = &args.stats_json {
             crate::output::write_atomic(path, run.json(&[]).as_bytes())
@@ -696,7 +696,7 @@ fn merge(args: MergeArgs) -> Result<()> {
         crate::output::create_output_dir(dir).context("creating the AOV directory")?;
     }
     let beauty = &frame.beauty;
-    format.write(&args.output, frame.width, frame.height, &beauty)?;
+    format.write(&args.output, frame.width, frame.height, beauty)?;
     if let Some(dir) = &args.aov {
         let manifest = |files: &[String]| {
             serde_json::to_string_pretty(&serde_json::json!({
@@ -709,7 +709,7 @@ fn merge(args: MergeArgs) -> Result<()> {
             }))
             .expect("plain data serialises")
         };
-        write_aovs(dir, &frame, &beauty, args.aov_format, &manifest)?;
+        write_aovs(dir, &frame, beauty, args.aov_format, &manifest)?;
     }
     if !args.quiet {
         eprintln!(
