@@ -12,10 +12,9 @@ use crate::Aabb;
 /// A node of the 4-wide tree: up to four children, each an inner node or a run of items.
 #[derive(Clone, Copy, Debug)]
 struct Node4 {
-    /// Children's lower corners, per axis, one lane per child.
-    min: [f32x4; 3],
-    /// Children's upper corners, per axis, one lane per child.
-    max: [f32x4; 3],
+    /// Children's lower (`planes[0]`) and upper (`planes[1]`) corners, per axis, one lane per
+    /// child: a ray picks its near and far planes per axis by index, once.
+    planes: [[f32x4; 3]; 2],
     /// An inner child's node index, or a leaf child's first position in `indices`.
     child: [u32; 4],
     /// A leaf child's item count; [`INNER`] for an inner child, 0 for an empty slot.
@@ -119,18 +118,17 @@ impl Bvh {
 impl Node4 {
     /// No children: every slot's box inverted (lower corner +∞, upper −∞), which no ray meets.
     const EMPTY: Node4 = Node4 {
-        min: [f32x4::new([f32::INFINITY; 4]); 3],
-        max: [f32x4::new([f32::NEG_INFINITY; 4]); 3],
+        planes: [[f32x4::new([f32::INFINITY; 4]); 3], [f32x4::new([f32::NEG_INFINITY; 4]); 3]],
         child: [0; 4],
         count: [0; 4],
     };
 
     fn set(&mut self, slot: usize, b: &Aabb, child: u32, count: u32) {
         for axis in 0..3 {
-            let (mut lo, mut hi) = (self.min[axis].to_array(), self.max[axis].to_array());
+            let (mut lo, mut hi) = (self.planes[0][axis].to_array(), self.planes[1][axis].to_array());
             lo[slot] = b.min[axis];
             hi[slot] = b.max[axis];
-            (self.min[axis], self.max[axis]) = (f32x4::new(lo), f32x4::new(hi));
+            (self.planes[0][axis], self.planes[1][axis]) = (f32x4::new(lo), f32x4::new(hi));
         }
         self.child[slot] = child;
         self.count[slot] = count;
@@ -157,15 +155,35 @@ impl Node4 {
         let mut far = f32x4::splat(tmax);
         let mut inside = 0b1111;
         for axis in 0..3 {
+            let (lo, hi) = (self.planes[0][axis], self.planes[1][axis]);
             if flat[axis] {
-                inside &= (self.min[axis].cmp_le(o[axis]) & self.max[axis].cmp_ge(o[axis])).move_mask();
+                inside &= (lo.cmp_le(o[axis]) & hi.cmp_ge(o[axis])).move_mask();
                 continue;
             }
-            let (lo, hi) = if back[axis] { (self.max[axis], self.min[axis]) } else { (self.min[axis], self.max[axis]) };
+            let (lo, hi) = if back[axis] { (hi, lo) } else { (lo, hi) };
             near = ((lo - o[axis]) * inv_d[axis]).fast_max(near);
             far = ((hi - o[axis]) * inv_d[axis]).fast_min(far);
         }
         (near.to_array(), near.cmp_le(far).move_mask() & inside)
+    }
+
+    /// [`Node4::enter`] for a ray that moves along every axis, with its near plane of each axis
+    /// chosen beforehand (`near[axis]`: 1 where the ray goes down the axis, else 0): no branch.
+    /// The same distances (a maximum or minimum does not round, whatever its order).
+    #[inline(always)]
+    fn enter_steep(
+        &self,
+        o: &[f32x4; 3],
+        inv_d: &[f32x4; 3],
+        near: [usize; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> ([f32; 4], i32) {
+        let t = |axis: usize, side: usize| (self.planes[side][axis] - o[axis]) * inv_d[axis];
+        let entry = t(0, near[0]).fast_max(t(1, near[1])).fast_max(t(2, near[2])).fast_max(f32x4::splat(tmin));
+        let exit =
+            t(0, 1 - near[0]).fast_min(t(1, 1 - near[1])).fast_min(t(2, 1 - near[2])).fast_min(f32x4::splat(tmax));
+        (entry.to_array(), entry.cmp_le(exit).move_mask())
     }
 }
 
@@ -428,23 +446,36 @@ impl Bvh {
     /// begins beyond the best hit so far is dropped; the order of visits depends only on the ray,
     /// so the same ray always gets the same answer.
     #[inline]
-    pub fn traverse_from(
-        &self,
-        o: Vec3,
-        d: Vec3,
-        tmin: f32,
-        mut tmax: f32,
-        mut visit: impl FnMut(u32, f32) -> f32,
-    ) -> f32 {
+    pub fn traverse_from(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, visit: impl FnMut(u32, f32) -> f32) -> f32 {
         if self.nodes.is_empty() {
             return tmax;
         }
         // Axes the ray does not move along (or so little that 1/d would overflow) are tested by
         // position instead of by distance: no 0 · ∞ in the slab arithmetic, and a ray lying
         // exactly on a box's face meets the box, whichever face, on every CPU.
-        let flat = d.abs().cmplt(Vec3::splat(f32::MIN_POSITIVE)).into();
+        let flat: [bool; 3] = d.abs().cmplt(Vec3::splat(f32::MIN_POSITIVE)).into();
+        if flat.iter().any(|&f| f) {
+            self.walk::<true>(o, d, flat, tmin, tmax, visit)
+        } else {
+            self.walk::<false>(o, d, flat, tmin, tmax, visit)
+        }
+    }
+
+    /// The traversal of [`Bvh::traverse_from`]; `FLAT`: whether some axis is `flat` (the slab
+    /// test then checks for it; else it is free of branches).
+    #[inline(always)]
+    fn walk<const FLAT: bool>(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        flat: [bool; 3],
+        tmin: f32,
+        mut tmax: f32,
+        mut visit: impl FnMut(u32, f32) -> f32,
+    ) -> f32 {
         let inv = d.recip();
-        let back = d.cmplt(Vec3::ZERO).into();
+        let back: [bool; 3] = d.cmplt(Vec3::ZERO).into();
+        let near_side = back.map(usize::from);
         let o = [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)];
         let inv_d = [f32x4::splat(inv.x), f32x4::splat(inv.y), f32x4::splat(inv.z)];
         // (child, its item count or INNER, entry distance): children are pushed farthest first,
@@ -470,7 +501,11 @@ impl Bvh {
                 continue;
             }
             let node = &self.nodes[child as usize];
-            let (near, mask) = node.enter(&o, &inv_d, back, flat, tmin, tmax);
+            let (near, mask) = if FLAT {
+                node.enter(&o, &inv_d, back, flat, tmin, tmax)
+            } else {
+                node.enter_steep(&o, &inv_d, near_side, tmin, tmax)
+            };
             // The children met, farthest first (ties: later slot first, so earlier slots are
             // visited first).
             let mut order = [0usize; 4];
@@ -542,7 +577,7 @@ mod tests {
             .nodes
             .iter()
             .map(|n| {
-                let bits = n.min.iter().chain(&n.max).flat_map(|v| v.to_array()).map(f32::to_bits);
+                let bits = n.planes.iter().flatten().flat_map(|v| v.to_array()).map(f32::to_bits);
                 bits.collect::<Vec<_>>().try_into().unwrap()
             })
             .collect();
