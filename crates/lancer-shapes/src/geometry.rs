@@ -346,10 +346,16 @@ impl Geometry {
                 tmax = self.test(i, o, d, tmin, tmax, &mut best);
             }
         }
-        self.bvh.traverse(o, d, tmax, |item, tmax| {
+        let mut visit = |item: u32, tmax: f32| {
             let i = self.bounded[item as usize];
             if i == skip { tmax } else { self.test(i, o, d, tmin, tmax, &mut best) }
-        });
+        };
+        // One bounded object (a lone mesh) tests its own box: no tree above it.
+        if self.bounded.len() == 1 {
+            visit(0, tmax);
+        } else {
+            self.bvh.traverse(o, d, tmax, visit);
+        }
         best
     }
 
@@ -360,6 +366,9 @@ impl Geometry {
         let blocks = |i: u32| i != skip && self.objects[i as usize].occludes(o, d, tmax);
         if self.unbounded.iter().any(|&i| blocks(i)) {
             return true;
+        }
+        if self.bounded.len() == 1 {
+            return blocks(self.bounded[0]);
         }
         let mut found = false;
         self.bvh.traverse(o, d, tmax, |item, tmax| {
