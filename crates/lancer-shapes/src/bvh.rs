@@ -483,8 +483,9 @@ impl Bvh {
         // per level of a tree at most MAX_DEPTH deep stay behind. An `ArrayVec`: no memory to
         // clear per query.
         let mut stack: arrayvec::ArrayVec<(u32, u32, f32), STACK> = arrayvec::ArrayVec::new();
-        stack.push((self.root, INNER, tmin));
-        while let Some((child, count, entry)) = stack.pop() {
+        // The nearest child met goes straight on, without a trip through the stack.
+        let mut next = Some((self.root, INNER, tmin));
+        while let Some((child, count, entry)) = next.take().or_else(|| stack.pop()) {
             if entry > tmax {
                 continue;
             }
@@ -521,8 +522,11 @@ impl Bvh {
                     met += 1;
                 }
             }
-            for &k in &order[..met] {
-                stack.push((node.child[k], node.count[k], near[k]));
+            if let Some((&nearest, farther)) = order[..met].split_last() {
+                for &k in farther {
+                    stack.push((node.child[k], node.count[k], near[k]));
+                }
+                next = Some((node.child[nearest], node.count[nearest], near[nearest]));
             }
         }
         tmax
