@@ -4,6 +4,7 @@
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use wide::f32x4;
 
 use crate::{Aabb, Bvh, LocalSurface, ShapeHit};
 
@@ -96,16 +97,27 @@ impl Sheared {
     }
 
     /// `(t, barycentric weights of v0, v1, v2)` if the ray meets the triangle with tmin < t < tmax.
+    ///
+    /// The three corners go through the shear side by side (one SIMD lane each); every lane's
+    /// sums are made in the same order as a scalar dot product's, so the answer is the same to
+    /// the bit.
     #[inline]
     fn hit(&self, v: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
         let [rx, ry, rz] = self.rows;
-        let rel = v.map(|p| p - self.o);
-        let xy = rel.map(|p| (p.dot(rx), p.dot(ry)));
-        let [(ax, ay), (bx, by), (cx, cy)] = xy;
-        let mut e = Vec3::new(cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
+        let lanes = |k: usize| f32x4::new([v[0][k] - self.o[k], v[1][k] - self.o[k], v[2][k] - self.o[k], 0.0]);
+        let (px, py, pz) = (lanes(0), lanes(1), lanes(2));
+        let along = |r: Vec3| px * f32x4::splat(r.x) + py * f32x4::splat(r.y) + pz * f32x4::splat(r.z);
+        let (xs, ys) = (along(rx), along(ry));
+        // e_i = x_{i+2} y_{i+1} − y_{i+2} x_{i+1}: the corners' lanes turned by one and by two.
+        let [x0, x1, x2, _] = xs.to_array();
+        let [y0, y1, y2, _] = ys.to_array();
+        let (x_next, x_after) = (f32x4::new([x1, x2, x0, 0.0]), f32x4::new([x2, x0, x1, 0.0]));
+        let (y_next, y_after) = (f32x4::new([y1, y2, y0, 0.0]), f32x4::new([y2, y0, y1, 0.0]));
+        let [ex, ey, ez, _] = (x_after * y_next - y_after * x_next).to_array();
+        let mut e = Vec3::new(ex, ey, ez);
         if e.x == 0.0 || e.y == 0.0 || e.z == 0.0 {
             // On an edge in f32: decide it in f64 so neighbouring triangles agree.
-            let [(ax, ay), (bx, by), (cx, cy)] = xy.map(|(x, y)| (x as f64, y as f64));
+            let [(ax, ay), (bx, by), (cx, cy)] = [(x0, y0), (x1, y1), (x2, y2)].map(|(x, y)| (x as f64, y as f64));
             e = Vec3::new((cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32, (bx * ay - by * ax) as f32);
         }
         if (e.x < 0.0 || e.y < 0.0 || e.z < 0.0) && (e.x > 0.0 || e.y > 0.0 || e.z > 0.0) {
@@ -115,8 +127,8 @@ impl Sheared {
         if det == 0.0 {
             return None;
         }
-        let z = Vec3::new(rel[0].dot(rz), rel[1].dot(rz), rel[2].dot(rz));
-        let t = e.dot(z) / det;
+        let [z0, z1, z2, _] = along(rz).to_array();
+        let t = e.dot(Vec3::new(z0, z1, z2)) / det;
         (t > tmin && t < tmax).then(|| (t, e / det))
     }
 }
