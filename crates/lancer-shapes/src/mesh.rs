@@ -78,22 +78,23 @@ struct Sheared {
 }
 
 impl Sheared {
+    #[inline(always)]
     fn new(o: Vec3, d: Vec3) -> Sheared {
         let a = d.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
+        // The axes as (kx, ky, kz) with z the one the ray runs most along; x and y swapped when
+        // it runs down z, so the triangles keep their winding.
+        let (x, y, z) = if a.x >= a.y && a.x >= a.z {
+            (Vec3::Y, Vec3::Z, Vec3::X)
         } else if a.y >= a.z {
-            1
+            (Vec3::Z, Vec3::X, Vec3::Y)
         } else {
-            2
+            (Vec3::X, Vec3::Y, Vec3::Z)
         };
-        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-        let axis = |k: usize| Vec3::AXES[k];
-        Sheared { o, rows: [axis(kx) - sx * axis(kz), axis(ky) - sy * axis(kz), sz * axis(kz)] }
+        // Dot products with unit axes: each picks a coordinate exactly.
+        let dz = d.dot(z);
+        let (x, y) = if dz < 0.0 { (y, x) } else { (x, y) };
+        let (sx, sy, sz) = (d.dot(x) / dz, d.dot(y) / dz, 1.0 / dz);
+        Sheared { o, rows: [x - sx * z, y - sy * z, sz * z] }
     }
 
     /// `(t, barycentric weights of v0, v1, v2)` if the ray meets the triangle with tmin < t < tmax.
