@@ -119,7 +119,7 @@ pub fn explain_pixel(
     y: u32,
 ) -> PixelExplanation {
     let ctx = shade_context(prepared, pipeline);
-    let mut scratch = Scratch::new(pipeline.terms.len() + 1);
+    let mut scratch = Scratch::new(&ctx, pipeline);
     let mut recorder = Recorder::default();
     let tile = Tile { x0: x, y0: y, w: 1, h: 1 };
     let mut stats = lancer_core::RenderStats::default();

@@ -131,7 +131,7 @@ pub fn render_prepared(
     let stats = bands
         .into_par_iter()
         .map_init(
-            || Scratch::new(pipeline.terms.len() + 1),
+            || Scratch::new(&ctx, pipeline),
             |scratch, (band, sum, mut out)| {
                 let mut stats = RenderStats::default();
                 let y0 = band as u32 * TILE;
@@ -245,11 +245,16 @@ pub(crate) struct Scratch {
     next: Rays,
     /// The tile's pixels, per layer (terms in model order, then the background).
     pub(crate) accum: Vec<Vec<Vec3>>,
+    /// For each material, whether some term of the model reads the light arriving on it
+    /// ([`crate::Term::reads_lights`], asked once per render, not per hit).
+    lit: Vec<bool>,
 }
 
 impl Scratch {
-    pub(crate) fn new(layers: usize) -> Scratch {
+    pub(crate) fn new(ctx: &ShadeContext<'_>, pipeline: &Pipeline) -> Scratch {
+        let layers = pipeline.terms.len() + 1;
         Scratch {
+            lit: ctx.materials.iter().map(|m| pipeline.terms.iter().any(|t| t.term.reads_lights(m))).collect(),
             world: hecs::World::new(),
             entities: Vec::new(),
             pool: Vec::new(),
@@ -336,10 +341,10 @@ pub(crate) fn render_tile(
             stats.peak_lanes = stats.peak_lanes.max(scratch.next.len() as u64);
             scratch.spawn_chunks(ctx.lights.len(), lanes);
             lap.charge(&mut times.chunks);
-            let Scratch { world, next, accum, .. } = scratch;
+            let Scratch { world, next, accum, lit, .. } = scratch;
             trace_system(world, ctx);
             lap.charge(&mut times.trace);
-            visibility_system(world, ctx, &shadow_ctx, pipeline);
+            visibility_system(world, ctx, &shadow_ctx, pipeline, lit);
             lap.charge(&mut times.visibility);
             if let Some(r) = recorder.as_deref_mut() {
                 r.generation(world, ctx, pipeline, image.background);
@@ -425,15 +430,12 @@ fn visibility_system(
     ctx: &ShadeContext<'_>,
     shadow_ctx: &ShadowContext<'_>,
     pipeline: &Pipeline,
+    lit: &[bool],
 ) {
     let shadows = &pipeline.shadows.model;
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         for lane in 0..hits.object.len() {
-            if hits.object[lane] == NO_HIT {
-                continue;
-            }
-            let material = ctx.material(hits, lane);
-            if !pipeline.terms.iter().any(|t| t.term.reads_lights(material)) {
+            if hits.object[lane] == NO_HIT || !lit[ctx.geometry.objects[hits.object[lane] as usize].material as usize] {
                 continue;
             }
             let hit = ctx.hit(hits, lane);
