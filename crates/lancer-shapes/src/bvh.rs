@@ -367,8 +367,8 @@ fn build(
     if n >= PARALLEL {
         // Each inner child's subtree in its own list, built at once; the first list becomes this
         // subtree's (moved, not copied), the others are appended with their node indices moved by
-        // where they land, and this node goes last. Only whole lists are ever held twice, so a
-        // large tree peaks at about its own size. (`out` is empty here: a large range is the
+        // where they land, and this node goes last. Only one list at a time is ever held twice,
+        // so a large tree peaks at about its own size and a quarter. (`out` is empty here: a large range is the
         // root's, or a child's of another large range, which starts a list of its own.)
         debug_assert!(out.is_empty());
         let mut slices = Vec::with_capacity(4);
@@ -390,7 +390,6 @@ fn build(
                 })
             })
             .collect();
-        let total: usize = lists.iter().flatten().map(|(l, _)| l.len()).sum();
         for (slot, (k, list)) in kids.iter().zip(lists).enumerate() {
             match list {
                 None => node.set(slot, &k.extent.bounds, (offset + k.start) as u32, k.len as u32),
@@ -399,9 +398,12 @@ fn build(
                     node.set(slot, &k.extent.bounds, base + root, INNER);
                     if out.is_empty() {
                         *out = list;
-                        out.reserve_exact(total + 1 - out.len());
                         continue;
                     }
+                    // Grown by each list as it is appended (and one for this node), not by all
+                    // of them at once: the lists not yet appended and the room for them are
+                    // never held together.
+                    out.reserve_exact(list.len() + 1);
                     out.extend(list.into_iter().map(|mut m| {
                         for c in 0..4 {
                             if m.count[c] == INNER {
