@@ -48,6 +48,9 @@ pub struct Object {
     pub material: u32,
     /// A world-space form of the shape, when it has one that needs no transform per ray.
     fast: Fast,
+    /// Whether the placement is exactly the identity (a mesh loaded as it is): rays and hits
+    /// skip the transforms, which would change nothing.
+    identity: bool,
 }
 
 /// World-space forms of simple placements: the intersection test skips the transform into
@@ -87,16 +90,23 @@ impl Object {
             }
             _ => Fast::None,
         };
-        Some(Object { shape, world_from_object, object_from_world, world_from_object_normal, material, fast })
+        let identity = world_from_object == Affine3A::IDENTITY;
+        Some(Object { shape, world_from_object, object_from_world, world_from_object_normal, material, fast, identity })
     }
 
     fn world_normal(&self, n_obj: Vec3) -> Vec3 {
+        if self.identity {
+            return n_obj.normalize_or(Vec3::Y);
+        }
         (self.world_from_object_normal * n_obj).normalize_or(Vec3::Y)
     }
 
     /// The world ray `o + t d` in object space (same `t`).
     #[inline]
     fn to_object(&self, o: Vec3, d: Vec3) -> (Vec3, Vec3) {
+        if self.identity {
+            return (o, d);
+        }
         (self.object_from_world.transform_point3(o), self.object_from_world.transform_vector3(d))
     }
 
@@ -184,7 +194,13 @@ impl Object {
                 let local: LocalSurface = self.shape.surface(oo, od, c);
                 let normal = self.world_normal(local.normal);
                 let shading = if local.shading == local.normal { normal } else { self.world_normal(local.shading) };
-                let (point, error) = place(&self.world_from_object, local.point, local.error, normal);
+                let (point, error) = if self.identity {
+                    // `place` with the identity: the same rounding bound, without the products.
+                    let rounding = GAMMA3 * local.point.abs();
+                    (local.point, normal.abs().dot(rounding + Vec3::splat(local.error)))
+                } else {
+                    place(&self.world_from_object, local.point, local.error, normal)
+                };
                 describe(point, local.point, normal, shading, local.uv, error)
             }
         }
