@@ -1,5 +1,6 @@
 //! Invariants every render keeps: each term adds exactly its own image to the beauty image, the
-//! thread count changes no bit, and nothing is NaN (the last two on every scene in `scenes/`).
+//! beauty image is the same bits whether the per-term images are kept or not, the thread count
+//! changes no bit, and nothing is NaN (the last three on every scene in `scenes/`).
 
 use lancer_tests::{load_file, render, render_with, scene_files};
 
@@ -40,7 +41,8 @@ fn no_render_has_a_nan_or_an_infinity() {
     for path in scene_files() {
         let frame = render(&load_file(&path), Some(80), 2);
         assert!(
-            frame.layers.iter().all(|l| l.pixels.iter().all(|p| p.is_finite())),
+            frame.layers.iter().all(|l| l.pixels.iter().all(|p| p.is_finite()))
+                && frame.beauty.iter().all(|p| p.is_finite()),
             "{}: a NaN or infinity",
             path.display()
         );
@@ -51,10 +53,17 @@ fn no_render_has_a_nan_or_an_infinity() {
 fn the_thread_count_changes_no_bit() {
     for path in scene_files() {
         let loaded = load_file(&path);
-        let one = render(&loaded, Some(72), 1);
-        let two = render(&loaded, Some(72), 2);
-        let three = render(&loaded, Some(72), 3);
-        assert!(one == two && two == three, "{}: renders differ across thread counts", path.display());
+        // Compared bit for bit (`==` on floats would let a 0 pass for a -0), the beauty image
+        // and every layer.
+        let bits = |f: &lancer_core::Frame| {
+            let images = std::iter::once(&f.beauty).chain(f.layers.iter().map(|l| &l.pixels));
+            images.flat_map(|px| px.iter().flat_map(|p| p.to_array().map(f32::to_bits))).collect::<Vec<u32>>()
+        };
+        let one = bits(&render(&loaded, Some(72), 1));
+        let two = bits(&render(&loaded, Some(72), 2));
+        let three = bits(&render_with(&loaded, Some(72), 3, false));
+        assert!(one == two, "{}: renders differ across thread counts", path.display());
+        assert!(one[..three.len()] == three[..], "{}: the beauty image differs on 3 threads", path.display());
     }
 }
 

@@ -409,9 +409,10 @@ fn case(dir: &Path, name: &str, text: &str, meshes: Option<u64>) -> Outcome {
         &loaded.pipeline,
         RenderOptions { layers: true, ..RenderOptions::default() },
     );
-    for layer in &frame.layers {
-        if let Some(i) = layer.pixels.iter().position(|p| !p.is_finite()) {
-            return Outcome::Failure(format!("a non-finite value in {} at pixel {i}", layer.name));
+    let images = frame.layers.iter().map(|l| (l.name.as_str(), &l.pixels)).chain([("beauty", &frame.beauty)]);
+    for (name, pixels) in images {
+        if let Some(i) = pixels.iter().position(|p| !p.is_finite()) {
+            return Outcome::Failure(format!("a non-finite value in {name} at pixel {i}"));
         }
     }
     // The middle pixel explained: the same values as the frame's, to the bit.

@@ -1,5 +1,5 @@
-//! The rendered frame: one linear float image per term (plus the background seen by camera rays),
-//! whose exact sum is the beauty image.
+//! The rendered frame: the beauty image and, when kept, one linear float image per term (plus the
+//! background seen by camera rays), whose exact sum the beauty image is.
 
 use std::time::Duration;
 

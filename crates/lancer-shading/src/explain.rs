@@ -119,11 +119,12 @@ pub fn explain_pixel(
     y: u32,
 ) -> PixelExplanation {
     let ctx = shade_context(prepared, pipeline);
-    let mut scratch = Scratch::new(&ctx, pipeline);
+    let lit = crate::render::lit_materials(&ctx, pipeline);
+    let mut scratch = Scratch::new(pipeline);
     let mut recorder = Recorder::default();
     let tile = Tile { x0: x, y0: y, w: 1, h: 1 };
     let mut stats = lancer_core::RenderStats::default();
-    render_tile(&ctx, camera, image, pipeline, tile, &mut scratch, Some(&mut recorder), false, &mut stats);
+    render_tile(&ctx, &lit, camera, image, pipeline, tile, &mut scratch, Some(&mut recorder), false, &mut stats);
     let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
     names.push(BACKGROUND.to_owned());
     let layers: Vec<(String, Vec3)> = names.into_iter().zip(scratch.accum.iter().map(|acc| acc[0])).collect();
@@ -193,7 +194,7 @@ impl Recorder {
                 let hit = ctx.hit(hits, 0);
                 let n = hits.facing_normal(0);
                 let material = ctx.material(hits, 0);
-                let reads = pipeline.terms.iter().any(|t| t.term.reads_lights(material));
+                let reads = crate::render::reads_lights(pipeline, material);
                 let object = &ctx.geometry.objects[hit.object as usize];
                 node.hit = Some(HitNode {
                     object: hit.object + 1,

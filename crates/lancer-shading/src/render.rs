@@ -29,8 +29,9 @@ pub struct RenderOptions<'a> {
     /// Checked before each tile: once it is set the remaining tiles are skipped (the frame is
     /// then incomplete; the caller that set it throws it away).
     pub cancel: Option<&'a std::sync::atomic::AtomicBool>,
-    /// Keep every term's image ([`Frame::layers`]); without it the frame holds only the beauty
-    /// image, the same bits, in a sixth of the memory for a five-term model.
+    /// Keep every term's image ([`Frame::layers`]); without it (the default) the frame holds
+    /// only the beauty image, the same bits, in a seventh of the memory for a five-term model
+    /// (five terms and the background, and the beauty image).
     pub layers: bool,
 }
 
@@ -60,7 +61,8 @@ impl Lap {
     }
 }
 
-/// Prepares `scene` and renders it with `pipeline` on the current rayon pool.
+/// Prepares `scene` and renders it with `pipeline` on the current rayon pool. The per-term
+/// images are kept only with [`RenderOptions::layers`].
 pub fn render(scene: &Scene, pipeline: &Pipeline, options: RenderOptions<'_>) -> Result<Frame, PrepareError> {
     let prepared = prepare(scene)?;
     Ok(render_prepared(&prepared, &scene.camera, &scene.image, pipeline, options))
@@ -83,6 +85,7 @@ pub fn render_prepared(
 ) -> Frame {
     let (width, height) = (image.width, image.height);
     let ctx = shade_context(prepared, pipeline);
+    let lit = lit_materials(&ctx, pipeline);
     let pixels = (width * height) as usize;
     // Zeroed by the system, page by page as the bands first write them: no pass over the whole
     // frame before the render.
@@ -131,7 +134,7 @@ pub fn render_prepared(
     let stats = bands
         .into_par_iter()
         .map_init(
-            || Scratch::new(&ctx, pipeline),
+            || Scratch::new(pipeline),
             |scratch, (band, sum, mut out)| {
                 let mut stats = RenderStats::default();
                 let y0 = band as u32 * TILE;
@@ -140,7 +143,7 @@ pub fn render_prepared(
                         break;
                     }
                     let tile = Tile { x0, y0, w: TILE.min(width - x0), h: TILE.min(height - y0) };
-                    render_tile(&ctx, camera, image, pipeline, tile, scratch, None, options.timing, &mut stats);
+                    render_tile(&ctx, &lit, camera, image, pipeline, tile, scratch, None, options.timing, &mut stats);
                     let mut lap = Lap::new(options.timing);
                     // The tile's pixels into the band's rows of every layer kept, and their
                     // sum, in layer order, into the beauty image.
@@ -245,16 +248,24 @@ pub(crate) struct Scratch {
     next: Rays,
     /// The tile's pixels, per layer (terms in model order, then the background).
     pub(crate) accum: Vec<Vec<Vec3>>,
-    /// For each material, whether some term of the model reads the light arriving on it
-    /// ([`crate::Term::reads_lights`], asked once per render, not per hit).
-    lit: Vec<bool>,
+}
+
+/// Whether some term of `pipeline` reads the light arriving on a surface of `material`: where
+/// the visibility system traces shadow rays.
+pub(crate) fn reads_lights(pipeline: &Pipeline, material: &lancer_core::Material) -> bool {
+    pipeline.terms.iter().any(|t| t.term.reads_lights(material))
+}
+
+/// [`reads_lights`] for every material of the scene, by material index: asked once per render,
+/// not per hit.
+pub(crate) fn lit_materials(ctx: &ShadeContext<'_>, pipeline: &Pipeline) -> Vec<bool> {
+    ctx.materials.iter().map(|m| reads_lights(pipeline, m)).collect()
 }
 
 impl Scratch {
-    pub(crate) fn new(ctx: &ShadeContext<'_>, pipeline: &Pipeline) -> Scratch {
+    pub(crate) fn new(pipeline: &Pipeline) -> Scratch {
         let layers = pipeline.terms.len() + 1;
         Scratch {
-            lit: ctx.materials.iter().map(|m| pipeline.terms.iter().any(|t| t.term.reads_lights(m))).collect(),
             world: hecs::World::new(),
             entities: Vec::new(),
             pool: Vec::new(),
@@ -307,6 +318,7 @@ fn sample_offset(s: u32, n: u32) -> (f32, f32) {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn render_tile(
     ctx: &ShadeContext<'_>,
+    lit: &[bool],
     camera: &Camera,
     image: &ImageSettings,
     pipeline: &Pipeline,
@@ -341,7 +353,7 @@ pub(crate) fn render_tile(
             stats.peak_lanes = stats.peak_lanes.max(scratch.next.len() as u64);
             scratch.spawn_chunks(ctx.lights.len(), lanes);
             lap.charge(&mut times.chunks);
-            let Scratch { world, next, accum, lit, .. } = scratch;
+            let Scratch { world, next, accum, .. } = scratch;
             trace_system(world, ctx);
             lap.charge(&mut times.trace);
             visibility_system(world, ctx, &shadow_ctx, pipeline, lit);
@@ -435,7 +447,7 @@ fn visibility_system(
     let shadows = &pipeline.shadows.model;
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         for lane in 0..hits.object.len() {
-            if hits.object[lane] == NO_HIT || !lit[ctx.geometry.objects[hits.object[lane] as usize].material as usize] {
+            if hits.object[lane] == NO_HIT || !lit[ctx.material_index(hits.object[lane])] {
                 continue;
             }
             let hit = ctx.hit(hits, lane);

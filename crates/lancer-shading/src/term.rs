@@ -23,7 +23,13 @@ impl ShadeContext<'_> {
     /// The material of object `object`.
     #[inline]
     pub fn material_of(&self, object: u32) -> &Material {
-        &self.materials[self.geometry.objects[object as usize].material as usize]
+        &self.materials[self.material_index(object)]
+    }
+
+    /// The index in [`ShadeContext::materials`] of object `object`'s material.
+    #[inline]
+    pub fn material_index(&self, object: u32) -> usize {
+        self.geometry.objects[object as usize].material as usize
     }
 
     /// `Col_Ω` at a hit: the material's pattern evaluated at its object-space point (or its mesh

@@ -33,6 +33,13 @@ pub(crate) fn place(m: &Affine3A, point: Vec3, error: f32, normal: Vec3) -> (Vec
     (world, normal.abs().dot(rounding + carried))
 }
 
+/// [`place`] by the identity, without the products by ones and zeros: the same bound.
+#[inline]
+fn place_unmoved(point: Vec3, error: f32, normal: Vec3) -> (Vec3, f32) {
+    let rounding = GAMMA3 * point.abs();
+    (point, normal.abs().dot(rounding + Vec3::splat(error)))
+}
+
 /// One placed shape.
 #[derive(Clone, Debug)]
 pub struct Object {
@@ -49,7 +56,7 @@ pub struct Object {
     /// A world-space form of the shape, when it has one that needs no transform per ray.
     fast: Fast,
     /// Whether the placement is exactly the identity (a mesh loaded as it is): rays and hits
-    /// skip the transforms, which would change nothing.
+    /// skip the transforms, which would change nothing but the sign of a zero coordinate.
     identity: bool,
 }
 
@@ -195,9 +202,7 @@ impl Object {
                 let normal = self.world_normal(local.normal);
                 let shading = if local.shading == local.normal { normal } else { self.world_normal(local.shading) };
                 let (point, error) = if self.identity {
-                    // `place` with the identity: the same rounding bound, without the products.
-                    let rounding = GAMMA3 * local.point.abs();
-                    (local.point, normal.abs().dot(rounding + Vec3::splat(local.error)))
+                    place_unmoved(local.point, local.error, normal)
                 } else {
                     place(&self.world_from_object, local.point, local.error, normal)
                 };
@@ -334,6 +339,14 @@ impl Geometry {
         }
     }
 
+    /// Whether the only bounded object is a mesh: its own tree's root tests its box, so no tree
+    /// goes above it. (Any other lone shape keeps the box test of the tree of one: a CSG
+    /// object's spans or a torus's quartic would cost more than the box.)
+    #[inline]
+    fn lone_mesh(&self) -> bool {
+        self.bounded.len() == 1 && matches!(self.objects[self.bounded[0] as usize].shape, Shape::Mesh(_))
+    }
+
     fn test(&self, i: u32, o: Vec3, d: Vec3, tmin: f32, tmax: f32, best: &mut Option<(u32, ShapeHit)>) -> f32 {
         match self.objects[i as usize].intersect(o, d, tmin, tmax) {
             Some(c) => {
@@ -366,8 +379,7 @@ impl Geometry {
             let i = self.bounded[item as usize];
             if i == skip { tmax } else { self.test(i, o, d, tmin, tmax, &mut best) }
         };
-        // One bounded object (a lone mesh) tests its own box: no tree above it.
-        if self.bounded.len() == 1 {
+        if self.lone_mesh() {
             visit(0, tmax);
         } else {
             self.bvh.traverse(o, d, tmax, visit);
@@ -383,7 +395,7 @@ impl Geometry {
         if self.unbounded.iter().any(|&i| blocks(i)) {
             return true;
         }
-        if self.bounded.len() == 1 {
+        if self.lone_mesh() {
             return blocks(self.bounded[0]);
         }
         let mut found = false;
@@ -544,6 +556,61 @@ mod tests {
                 Ok(())
             })
             .unwrap();
+    }
+
+    #[test]
+    fn placing_by_the_identity_without_products_gives_the_same_bound() {
+        let mut state = 0x853C_49E6_748F_EA9Bu64;
+        let mut f = |lo: f32, hi: f32| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
+        };
+        for _ in 0..10_000 {
+            let p = Vec3::new(f(-1e4, 1e4), f(-1.0, 1.0), f(-1e-3, 1e-3));
+            let n = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)).normalize_or(Vec3::Y);
+            let e = f(0.0, 1e-3);
+            let (a, b) = (place(&Affine3A::IDENTITY, p, e, n), place_unmoved(p, e, n));
+            assert_eq!(
+                (a.0.to_array().map(f32::to_bits), a.1.to_bits()),
+                (b.0.to_array().map(f32::to_bits), b.1.to_bits())
+            );
+        }
+    }
+
+    #[test]
+    fn a_lone_mesh_without_a_tree_above_it_finds_the_triangles_hit() {
+        // A mesh alone in the scene skips the tree of one object: placed by a rotation and a
+        // scale (its world box no longer tests the ray), it still finds the first triangle the
+        // ray meets, as testing every triangle in its own space does.
+        let place = Affine3A::from_scale_rotation_translation(
+            Vec3::new(2.0, 0.5, 1.0),
+            Quat::from_euler(glam::EulerRot::XYZ, 0.3, 1.1, -0.4),
+            Vec3::new(1.0, -2.0, 3.0),
+        );
+        let mesh = std::sync::Arc::new(crate::mesh::tests::octahedron());
+        let g = Geometry::new(vec![Object::new(Shape::Mesh(mesh.clone()), place, 0).unwrap()]);
+        assert!(g.lone_mesh());
+        let inverse = place.inverse();
+        let mut hits = 0;
+        for k in 0..2_000 {
+            let a = k as f32 * 0.618_034;
+            let o = Vec3::new(6.0 * a.cos(), 4.0 * (a * 1.7).sin(), 6.0 * a.sin()) + Vec3::new(1.0, -2.0, 3.0);
+            let target = Vec3::new(1.0, -2.0, 3.0) + Vec3::new((a * 3.1).sin(), (a * 2.3).cos(), (a * 1.3).sin()) * 1.2;
+            let d = (target - o).normalize();
+            let found = g.closest(Origin::free(o), d, 0.0, f32::INFINITY).map(|(_, c)| c.t);
+            let each = mesh.intersect_brute_force(
+                inverse.transform_point3(o),
+                inverse.transform_vector3(d),
+                0.0,
+                f32::INFINITY,
+            );
+            assert_eq!(found, each, "ray {k}");
+            assert_eq!(g.any_hit(Origin::free(o), d, f32::INFINITY), each.is_some(), "ray {k}");
+            hits += usize::from(each.is_some());
+        }
+        assert!(hits > 200, "{hits}");
     }
 
     #[test]

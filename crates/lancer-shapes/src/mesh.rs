@@ -365,6 +365,70 @@ pub(crate) mod tests {
         octahedron_of(OUTWARD.to_vec())
     }
 
+    /// The triangle test with scalar dot products, as it was written before the corners went
+    /// into SIMD lanes: the reference the lanes must match to the bit.
+    fn hit_by_dots(ray: &Sheared, v: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+        let [rx, ry, rz] = ray.rows;
+        let rel = v.map(|p| p - ray.o);
+        let xy = rel.map(|p| (p.dot(rx), p.dot(ry)));
+        let [(ax, ay), (bx, by), (cx, cy)] = xy;
+        let mut e = Vec3::new(cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
+        if e.x == 0.0 || e.y == 0.0 || e.z == 0.0 {
+            let [(ax, ay), (bx, by), (cx, cy)] = xy.map(|(x, y)| (x as f64, y as f64));
+            e = Vec3::new((cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32, (bx * ay - by * ax) as f32);
+        }
+        if (e.x < 0.0 || e.y < 0.0 || e.z < 0.0) && (e.x > 0.0 || e.y > 0.0 || e.z > 0.0) {
+            return None;
+        }
+        let det = e.x + e.y + e.z;
+        if det == 0.0 {
+            return None;
+        }
+        let z = Vec3::new(rel[0].dot(rz), rel[1].dot(rz), rel[2].dot(rz));
+        let t = e.dot(z) / det;
+        (t > tmin && t < tmax).then(|| (t, e / det))
+    }
+
+    #[test]
+    fn the_lanes_triangle_test_gives_the_scalar_answer_to_the_bit() {
+        // Random triangles and rays, rays aimed at a corner or along an edge (the f64 path),
+        // axis-aligned rays (a zero shear) and rays running down an axis (swapped x and y).
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut f = |lo: f32, hi: f32| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
+        };
+        let bits = |h: Option<(f32, Vec3)>| h.map(|(t, w)| [t.to_bits(), w.x.to_bits(), w.y.to_bits(), w.z.to_bits()]);
+        let mut hits = 0;
+        for k in 0..20_000 {
+            let mut v = [(); 3].map(|_| Vec3::new(f(-2.0, 2.0), f(-2.0, 2.0), f(-2.0, 2.0)));
+            if k % 5 == 0 {
+                v[2] = v[0] + (v[1] - v[0]) * 0.5 + Vec3::new(0.0, f(0.1, 1.0), 0.0);
+            }
+            let o = Vec3::new(f(-5.0, 5.0), f(-5.0, 5.0), f(-5.0, 5.0));
+            let target = match k % 4 {
+                0 => v[k % 3],
+                1 => v[0] + (v[1] - v[0]) * f(0.0, 1.0),
+                _ => v[0] * f(0.0, 0.5) + v[1] * f(0.0, 0.5) + v[2] * f(0.0, 0.5),
+            };
+            let mut d = target - o;
+            if k % 7 == 0 {
+                d = [Vec3::X, -Vec3::Y, Vec3::Z, -Vec3::Z][k % 4];
+            }
+            let ray = Sheared::new(o, d);
+            let lanes = ray.hit(&v, 0.0, f32::INFINITY);
+            assert_eq!(
+                bits(lanes),
+                bits(hit_by_dots(&ray, &v, 0.0, f32::INFINITY)),
+                "case {k}: {v:?} from {o} along {d}"
+            );
+            hits += usize::from(lanes.is_some());
+        }
+        assert!(hits > 5_000, "the cases hit often enough to test something ({hits})");
+    }
+
     #[test]
     fn octahedron_is_closed_and_hit_with_outward_normals() {
         let m = octahedron();
