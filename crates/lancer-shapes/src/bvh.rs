@@ -382,7 +382,11 @@ fn build(
             .zip(kids.par_iter())
             .map(|(s, k)| {
                 k.split.map(|split| {
-                    let mut list = Vec::new();
+                    // A list built on one thread gets about the room it will take up front
+                    // (triangle trees take some 0.27 nodes per triangle), instead of doubling
+                    // its way there and leaving the smaller copies behind in the allocator;
+                    // a larger one starts as its first child's list.
+                    let mut list = if k.len < PARALLEL { Vec::with_capacity(k.len * 3 / 10 + 8) } else { Vec::new() };
                     let root = build(s, offset + k.start, split, k.depth + 1, step, &mut list);
                     list.shrink_to_fit();
                     (list, root)
@@ -397,8 +401,6 @@ fn build(
                     node.set(slot, &k.extent.bounds, base + root, INNER);
                     if out.is_empty() {
                         *out = list;
-                        // Room for this node, should no other list follow.
-                        out.reserve_exact(1);
                         continue;
                     }
                     // Grown by each list as it is appended (and one for this node), not by all
