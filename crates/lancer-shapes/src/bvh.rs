@@ -616,14 +616,7 @@ mod tests {
         // traversal (the branch-free node test for rays that move along every axis, the nearest
         // child without the stack) visits the same items in the same order as the plain
         // recursion, and ends with the same bound.
-        // A fixed xorshift sequence: the same cases on every run.
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut f = |lo: f32, hi: f32| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
-        };
+        let mut f = crate::testing::uniform(0x9E37_79B9_7F4A_7C15);
         for case in 0..40 {
             let count = 1 + case * 37 % 300;
             let boxes: Vec<Aabb> = (0..count)

@@ -266,6 +266,10 @@ pub struct Geometry {
     bvh: Bvh,
     bounded: Vec<u32>,
     unbounded: Vec<u32>,
+    /// Whether the only bounded object is a mesh: its own tree's root tests its box, so no tree
+    /// goes above it. (Any other lone shape keeps the box test of the tree of one: a CSG
+    /// object's spans or a torus's quartic would cost more than the box.)
+    lone_mesh: bool,
 }
 
 /// `Origin::skip` when a ray may hit every object.
@@ -309,7 +313,8 @@ impl Geometry {
                 None => unbounded.push(i as u32),
             }
         }
-        Geometry { bvh: Bvh::build(&bounds), objects, bounded, unbounded }
+        let lone_mesh = bounded.len() == 1 && matches!(objects[bounded[0] as usize].shape, Shape::Mesh(_));
+        Geometry { bvh: Bvh::build(&bounds), objects, bounded, unbounded, lone_mesh }
     }
 
     /// Where a secondary ray leaving the surface at `at` in direction `dir` starts, and which
@@ -337,14 +342,6 @@ impl Geometry {
         } else {
             Origin { point: at.point + side * offset, skip: NO_SKIP }
         }
-    }
-
-    /// Whether the only bounded object is a mesh: its own tree's root tests its box, so no tree
-    /// goes above it. (Any other lone shape keeps the box test of the tree of one: a CSG
-    /// object's spans or a torus's quartic would cost more than the box.)
-    #[inline]
-    fn lone_mesh(&self) -> bool {
-        self.bounded.len() == 1 && matches!(self.objects[self.bounded[0] as usize].shape, Shape::Mesh(_))
     }
 
     fn test(&self, i: u32, o: Vec3, d: Vec3, tmin: f32, tmax: f32, best: &mut Option<(u32, ShapeHit)>) -> f32 {
@@ -379,7 +376,7 @@ impl Geometry {
             let i = self.bounded[item as usize];
             if i == skip { tmax } else { self.test(i, o, d, tmin, tmax, &mut best) }
         };
-        if self.lone_mesh() {
+        if self.lone_mesh {
             visit(0, tmax);
         } else {
             self.bvh.traverse(o, d, tmax, visit);
@@ -395,7 +392,7 @@ impl Geometry {
         if self.unbounded.iter().any(|&i| blocks(i)) {
             return true;
         }
-        if self.lone_mesh() {
+        if self.lone_mesh {
             return blocks(self.bounded[0]);
         }
         let mut found = false;
@@ -560,13 +557,7 @@ mod tests {
 
     #[test]
     fn placing_by_the_identity_without_products_gives_the_same_bound() {
-        let mut state = 0x853C_49E6_748F_EA9Bu64;
-        let mut f = |lo: f32, hi: f32| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
-        };
+        let mut f = crate::testing::uniform(0x853C_49E6_748F_EA9B);
         for _ in 0..10_000 {
             let p = Vec3::new(f(-1e4, 1e4), f(-1.0, 1.0), f(-1e-3, 1e-3));
             let n = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)).normalize_or(Vec3::Y);
@@ -591,7 +582,7 @@ mod tests {
         );
         let mesh = std::sync::Arc::new(crate::mesh::tests::octahedron());
         let g = Geometry::new(vec![Object::new(Shape::Mesh(mesh.clone()), place, 0).unwrap()]);
-        assert!(g.lone_mesh());
+        assert!(g.lone_mesh);
         let inverse = place.inverse();
         let mut hits = 0;
         for k in 0..2_000 {

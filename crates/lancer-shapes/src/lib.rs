@@ -20,3 +20,19 @@ pub use csg::{Csg, CsgNode, CsgOp, Span, combine};
 pub use geometry::{Geometry, Hit, NO_SKIP, Object, Origin, invertible};
 pub use mesh::{Mesh, MeshError};
 pub use shape::{LocalSurface, Shape, ShapeHit};
+
+/// What the unit tests share.
+#[cfg(test)]
+pub(crate) mod testing {
+    /// A fixed xorshift sequence from `seed` as uniform numbers in `[lo, hi)`: the same cases on
+    /// every run, with no generator crate.
+    pub(crate) fn uniform(seed: u64) -> impl FnMut(f32, f32) -> f32 {
+        let mut state = seed;
+        move |lo, hi| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
+        }
+    }
+}

@@ -115,23 +115,32 @@ impl Sheared {
         let (x_next, x_after) = (f32x4::new([x1, x2, x0, 0.0]), f32x4::new([x2, x0, x1, 0.0]));
         let (y_next, y_after) = (f32x4::new([y1, y2, y0, 0.0]), f32x4::new([y2, y0, y1, 0.0]));
         let [ex, ey, ez, _] = (x_after * y_next - y_after * x_next).to_array();
-        let mut e = Vec3::new(ex, ey, ez);
-        if e.x == 0.0 || e.y == 0.0 || e.z == 0.0 {
-            // On an edge in f32: decide it in f64 so neighbouring triangles agree.
-            let [(ax, ay), (bx, by), (cx, cy)] = [(x0, y0), (x1, y1), (x2, y2)].map(|(x, y)| (x as f64, y as f64));
-            e = Vec3::new((cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32, (bx * ay - by * ax) as f32);
-        }
-        if (e.x < 0.0 || e.y < 0.0 || e.z < 0.0) && (e.x > 0.0 || e.y > 0.0 || e.z > 0.0) {
-            return None;
-        }
-        let det = e.x + e.y + e.z;
-        if det == 0.0 {
-            return None;
-        }
-        let [z0, z1, z2, _] = along(rz).to_array();
-        let t = e.dot(Vec3::new(z0, z1, z2)) / det;
-        (t > tmin && t < tmax).then(|| (t, e / det))
+        let z = || {
+            let [z0, z1, z2, _] = along(rz).to_array();
+            Vec3::new(z0, z1, z2)
+        };
+        resolve([(x0, y0), (x1, y1), (x2, y2)], Vec3::new(ex, ey, ez), z, tmin, tmax)
     }
+}
+
+/// The end of the watertight test, from the corners' sheared `(x, y)`, their edge functions `e`
+/// and their sheared `z` (asked for only once the ray is known to cross the triangle's edges).
+#[inline(always)]
+fn resolve(xy: [(f32, f32); 3], mut e: Vec3, z: impl FnOnce() -> Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
+    if e.x == 0.0 || e.y == 0.0 || e.z == 0.0 {
+        // On an edge in f32: decide it in f64 so neighbouring triangles agree.
+        let [(ax, ay), (bx, by), (cx, cy)] = xy.map(|(x, y)| (x as f64, y as f64));
+        e = Vec3::new((cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32, (bx * ay - by * ax) as f32);
+    }
+    if (e.x < 0.0 || e.y < 0.0 || e.z < 0.0) && (e.x > 0.0 || e.y > 0.0 || e.z > 0.0) {
+        return None;
+    }
+    let det = e.x + e.y + e.z;
+    if det == 0.0 {
+        return None;
+    }
+    let t = e.dot(z()) / det;
+    (t > tmin && t < tmax).then(|| (t, e / det))
 }
 
 /// Whether the triangle `a b c` has (nearly) no area: its corners on one line, to single
@@ -365,41 +374,23 @@ pub(crate) mod tests {
         octahedron_of(OUTWARD.to_vec())
     }
 
-    /// The triangle test with scalar dot products, as it was written before the corners went
-    /// into SIMD lanes: the reference the lanes must match to the bit.
+    /// The triangle test's shear and edge functions with scalar dot products, as they were
+    /// written before the corners went into SIMD lanes: the reference the lanes must match to
+    /// the bit.
     fn hit_by_dots(ray: &Sheared, v: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, Vec3)> {
         let [rx, ry, rz] = ray.rows;
         let rel = v.map(|p| p - ray.o);
         let xy = rel.map(|p| (p.dot(rx), p.dot(ry)));
         let [(ax, ay), (bx, by), (cx, cy)] = xy;
-        let mut e = Vec3::new(cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
-        if e.x == 0.0 || e.y == 0.0 || e.z == 0.0 {
-            let [(ax, ay), (bx, by), (cx, cy)] = xy.map(|(x, y)| (x as f64, y as f64));
-            e = Vec3::new((cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32, (bx * ay - by * ax) as f32);
-        }
-        if (e.x < 0.0 || e.y < 0.0 || e.z < 0.0) && (e.x > 0.0 || e.y > 0.0 || e.z > 0.0) {
-            return None;
-        }
-        let det = e.x + e.y + e.z;
-        if det == 0.0 {
-            return None;
-        }
-        let z = Vec3::new(rel[0].dot(rz), rel[1].dot(rz), rel[2].dot(rz));
-        let t = e.dot(z) / det;
-        (t > tmin && t < tmax).then(|| (t, e / det))
+        let e = Vec3::new(cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
+        resolve(xy, e, || Vec3::new(rel[0].dot(rz), rel[1].dot(rz), rel[2].dot(rz)), tmin, tmax)
     }
 
     #[test]
     fn the_lanes_triangle_test_gives_the_scalar_answer_to_the_bit() {
         // Random triangles and rays, rays aimed at a corner or along an edge (the f64 path),
         // axis-aligned rays (a zero shear) and rays running down an axis (swapped x and y).
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut f = |lo: f32, hi: f32| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
-        };
+        let mut f = crate::testing::uniform(0x2545_F491_4F6C_DD1D);
         let bits = |h: Option<(f32, Vec3)>| h.map(|(t, w)| [t.to_bits(), w.x.to_bits(), w.y.to_bits(), w.z.to_bits()]);
         let mut hits = 0;
         for k in 0..20_000 {
