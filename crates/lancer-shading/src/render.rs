@@ -6,7 +6,7 @@ use glam::Vec3;
 use lancer_core::frame::BACKGROUND;
 use lancer_core::rays::{CHUNK_LANES, CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
 use lancer_core::{Camera, Frame, ImageSettings, Layer, RenderStats, Scene};
-use lancer_shapes::{NO_SKIP, Origin};
+use lancer_shapes::NO_SKIP;
 use rayon::prelude::*;
 
 use crate::{Chunk, Pipeline, PrepareError, Prepared, ShadeContext, ShadowContext, TermOutput, prepare};
@@ -416,21 +416,21 @@ fn camera_system(camera: &Camera, image: &ImageSettings, tile: Tile, range: std:
 
 /// Closest hit of every ray, with everything terms need about the surface there.
 fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
+    let objects = &ctx.geometry.objects;
     for (rays, hits) in world.query_mut::<(&Rays, &mut Hits)>() {
-        for lane in 0..rays.len() {
-            let from = Origin { point: rays.origin[lane], skip: rays.skip[lane] };
-            if let Some(h) = ctx.geometry.closest_hit(from, rays.dir[lane], 0.0, f32::INFINITY) {
-                hits.t[lane] = h.t;
-                hits.point[lane] = h.point;
-                hits.local[lane] = h.local;
-                hits.uv[lane] = h.uv;
-                hits.normal[lane] = h.normal;
-                hits.shading[lane] = h.shading;
-                hits.error[lane] = h.error;
-                hits.front[lane] = h.front;
-                hits.object[lane] = h.object;
-            }
-        }
+        let found = |lane: usize, i: u32, c: &lancer_shapes::ShapeHit| {
+            let h = objects[i as usize].hit(i, rays.origin[lane], rays.dir[lane], c);
+            hits.t[lane] = h.t;
+            hits.point[lane] = h.point;
+            hits.local[lane] = h.local;
+            hits.uv[lane] = h.uv;
+            hits.normal[lane] = h.normal;
+            hits.shading[lane] = h.shading;
+            hits.error[lane] = h.error;
+            hits.front[lane] = h.front;
+            hits.object[lane] = h.object;
+        };
+        ctx.geometry.closest_each(&rays.origin, &rays.skip, &rays.dir, |_| f32::INFINITY, found);
     }
 }
 

@@ -101,6 +101,24 @@ impl Object {
         Some(Object { shape, world_from_object, object_from_world, world_from_object_normal, material, fast, identity })
     }
 
+    /// How [`crate::stream`] tests the object against four rays at once.
+    pub(crate) fn stream_test(&self) -> crate::stream::Test {
+        use crate::stream::Test;
+        match self.fast {
+            // The box a little larger than the sphere: rounding never drops a ray that hits it.
+            Fast::Sphere { centre, radius2 } => Test::Sphere {
+                centre,
+                radius2,
+                radius: radius2.sqrt() * (1.0 + 1e-5) + centre.abs().max_element() * 1e-6,
+            },
+            Fast::Plane { normal, offset } => Test::Plane { normal, offset },
+            Fast::None => match self.bounds() {
+                Some(b) => Test::Boxed { min: b.min, max: b.max },
+                None => Test::Boxed { min: Vec3::NEG_INFINITY, max: Vec3::INFINITY },
+            },
+        }
+    }
+
     fn world_normal(&self, n_obj: Vec3) -> Vec3 {
         if self.identity {
             return n_obj.normalize_or(Vec3::Y);
@@ -269,7 +287,10 @@ pub struct Geometry {
     /// Whether the only bounded object is a mesh: its own tree's root tests its box, so no tree
     /// goes above it. (Any other lone shape keeps the box test of the tree of one: a CSG
     /// object's spans or a torus's quartic would cost more than the box.)
-    lone_mesh: bool,
+    pub(crate) lone_mesh: bool,
+    /// A small scene's objects in the order [`Geometry::closest_each`] tests them against blocks
+    /// of rays; empty when rays walk the BVH one by one instead.
+    pub(crate) stream: Vec<crate::stream::Item>,
 }
 
 /// `Origin::skip` when a ray may hit every object.
@@ -314,7 +335,12 @@ impl Geometry {
             }
         }
         let lone_mesh = bounded.len() == 1 && matches!(objects[bounded[0] as usize].shape, Shape::Mesh(_));
-        Geometry { bvh: Bvh::build(&bounds), objects, bounded, unbounded, lone_mesh }
+        let stream = if lone_mesh || bounded.len() > crate::stream::MOST_OBJECTS {
+            Vec::new()
+        } else {
+            crate::stream::plan(&objects)
+        };
+        Geometry { bvh: Bvh::build(&bounds), objects, bounded, unbounded, lone_mesh, stream }
     }
 
     /// Where a secondary ray leaving the surface at `at` in direction `dir` starts, and which
@@ -382,6 +408,31 @@ impl Geometry {
             self.bvh.traverse(o, d, tmax, visit);
         }
         best
+    }
+
+    /// [`Geometry::closest`] with `tmin = 0` for many rays at once: for each ray `lane` of
+    /// `origin`, `skip` and `dir` (the same length), `found(lane, object, crossing)` with its
+    /// closest crossing within `0 < t < tmax(lane)`, if it has one, in lane order. A small scene
+    /// tests its objects against blocks of rays, four at a time; a larger one walks the BVH
+    /// for each ray. Either way a ray's answer depends only on the ray.
+    pub fn closest_each(
+        &self,
+        origin: &[Vec3],
+        skip: &[u32],
+        dir: &[Vec3],
+        tmax: impl Fn(usize) -> f32,
+        mut found: impl FnMut(usize, u32, &ShapeHit),
+    ) {
+        if self.stream.is_empty() {
+            for lane in 0..origin.len() {
+                let from = Origin { point: origin[lane], skip: skip[lane] };
+                if let Some((i, c)) = self.closest(from, dir[lane], 0.0, tmax(lane)) {
+                    found(lane, i, &c);
+                }
+            }
+        } else {
+            crate::stream::closest_each(&self.objects, &self.stream, origin, skip, dir, tmax, found);
+        }
     }
 
     /// Whether any object (but `from.skip`) lies on the ray within `0 < t < tmax`: a shadow ray

@@ -11,6 +11,7 @@ mod geometry;
 mod mesh;
 mod quartic;
 mod shape;
+mod stream;
 mod topology;
 mod torus;
 

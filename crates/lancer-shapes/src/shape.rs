@@ -109,6 +109,18 @@ impl Shape {
         })
     }
 
+    /// How costly the shape's intersection test is, roughly, from 0 (a box) up: the order in
+    /// which a block of rays meets a small scene's objects.
+    pub(crate) fn cost_rank(&self) -> u32 {
+        match self {
+            Shape::Sphere | Shape::Cube | Shape::Plane | Shape::Disk => 0,
+            Shape::Cylinder | Shape::Cone => 1,
+            Shape::Torus { .. } => 2,
+            Shape::Csg(_) => 3,
+            Shape::Mesh(_) => 4,
+        }
+    }
+
     /// Whether the shape is convex (a plane and a disk count): a ray leaving its surface never
     /// meets it again, so secondary rays may ignore it.
     pub fn is_convex(&self) -> bool {

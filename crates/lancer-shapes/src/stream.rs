@@ -1,0 +1,478 @@
+//! Rays traced together through a small scene: object after object, four rays at a time. A few
+//! objects tested against a whole block of rays cost less than a walk down the BVH per ray:
+//! spheres and planes are tested in world space with SIMD arithmetic, every other shape behind
+//! a SIMD test of its world box.
+//!
+//! Each ray's answer is the one [`crate::Geometry::closest`] gives it (the crossing with the
+//! smallest `t`, the same arithmetic for each shape): it depends on nothing but the ray, so a
+//! ray traced alone or among others, on any thread, finds the same hit.
+
+use glam::Vec3;
+use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe, f32x4, i32x4};
+
+use crate::{Object, ShapeHit};
+
+/// The most bounded objects a scene may have for its rays to be traced object by object; more,
+/// and each ray walks the BVH (measured on the benchmark's sphere series).
+pub(crate) const MOST_OBJECTS: usize = 16;
+
+/// Rays per block: their columns stay on the stack.
+const BLOCK: usize = 64;
+const GROUPS: usize = BLOCK / 4;
+
+/// How an object is tested against four rays at once.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Test {
+    /// A sphere scaled the same on every axis, in world space.
+    Sphere { centre: Vec3, radius2: f32, radius: f32 },
+    /// A plane in world space: unit normal and offset.
+    Plane { normal: Vec3, offset: f32 },
+    /// Any other object: its world box first (infinite for an unbounded one), then its own test
+    /// for each ray that meets the box.
+    Boxed { min: Vec3, max: Vec3 },
+}
+
+/// An object in the order rays meet them: the index it is known by, and its test.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Item {
+    pub(crate) object: u32,
+    pub(crate) test: Test,
+    /// A sphere (centre, radius) around the object, a little larger than it; `None` when it is
+    /// unbounded.
+    pub(crate) bound: Option<(Vec3, f32)>,
+}
+
+/// The objects in the order they are tested: the cheapest first (planes, spheres, then the
+/// others by their shape's cost), so the costly ones are reached with the nearest hit so far
+/// and their box test drops most rays. Ties keep the scene's order.
+pub(crate) fn plan(objects: &[Object]) -> Vec<Item> {
+    let mut items: Vec<(u32, Item)> = objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let test = o.stream_test();
+            let rank = match test {
+                Test::Plane { .. } => 0,
+                Test::Sphere { .. } => 1,
+                Test::Boxed { .. } => 2 + o.shape.cost_rank(),
+            };
+            let bound = o.bounds().map(|b| {
+                let (centre, radius) = ((b.min + b.max) * 0.5, (b.max - b.min).length() * 0.5);
+                (centre, radius * (1.0 + 1e-4) + centre.abs().max_element() * 1e-6)
+            });
+            (rank, Item { object: i as u32, test, bound: bound.filter(|(c, r)| c.is_finite() && r.is_finite()) })
+        })
+        .collect();
+    items.sort_by_key(|(rank, item)| (*rank, item.object));
+    items.into_iter().map(|(_, item)| item).collect()
+}
+
+/// A block's rays, four to a SIMD group, and the nearest hit of each so far.
+struct Block {
+    o: [[f32x4; GROUPS]; 3],
+    d: [[f32x4; GROUPS]; 3],
+    /// `1 / d`, for the box tests.
+    inv: [[f32x4; GROUPS]; 3],
+    /// Lanes whose ray does not move along the axis (or so little that `1 / d` overflows): the
+    /// box test checks their position instead of a distance.
+    flat: [[f32x4; GROUPS]; 3],
+    /// The nearest hit so far (the ray's own limit to begin with; −1 on lanes past the end,
+    /// which nothing passes).
+    tmax: [f32x4; GROUPS],
+    skip: [i32x4; GROUPS],
+    /// Whether some lane has a flat axis.
+    any_flat: bool,
+    /// Where every ray of the block stays, when they go roughly the same way.
+    cone: Option<Cone>,
+    best: [u32; BLOCK],
+    hit: [ShapeHit; BLOCK],
+}
+
+const NONE: u32 = u32::MAX;
+
+/// Every bit set: a lane's mask of "true".
+const ALL: f32x4 = f32x4::new([f32::from_bits(u32::MAX); 4]);
+
+/// For each ray `lane` of `origin`, `skip`, `dir` (the same length), the closest crossing with
+/// `0 < t < tmax(lane)` of any object but `skip[lane]`: `found(lane, object, crossing)` for each
+/// ray that has one, in lane order.
+pub(crate) fn closest_each(
+    objects: &[Object],
+    items: &[Item],
+    origin: &[Vec3],
+    skip: &[u32],
+    dir: &[Vec3],
+    tmax: impl Fn(usize) -> f32,
+    mut found: impl FnMut(usize, u32, &ShapeHit),
+) {
+    let mut block = Block {
+        o: [[f32x4::ZERO; GROUPS]; 3],
+        d: [[f32x4::ZERO; GROUPS]; 3],
+        inv: [[f32x4::ZERO; GROUPS]; 3],
+        flat: [[f32x4::ZERO; GROUPS]; 3],
+        tmax: [f32x4::ZERO; GROUPS],
+        skip: [i32x4::ZERO; GROUPS],
+        any_flat: false,
+        cone: None,
+        best: [NONE; BLOCK],
+        hit: [ShapeHit { t: 0.0, normal: Vec3::ZERO, part: 0, bary: glam::Vec2::ZERO }; BLOCK],
+    };
+    for start in (0..origin.len()).step_by(BLOCK) {
+        let n = (origin.len() - start).min(BLOCK);
+        block.load(&origin[start..start + n], &skip[start..start + n], &dir[start..start + n], |l| tmax(start + l));
+        for item in items {
+            block.test(objects, item, n);
+        }
+        for lane in 0..n {
+            if block.best[lane] != NONE {
+                found(start + lane, block.best[lane], &block.hit[lane]);
+            }
+        }
+    }
+}
+
+impl Block {
+    fn load(&mut self, origin: &[Vec3], skip: &[u32], dir: &[Vec3], tmax: impl Fn(usize) -> f32) {
+        let n = origin.len();
+        self.any_flat = false;
+        self.cone = Cone::of(origin, dir);
+        for g in 0..n.div_ceil(4) {
+            for k in 0..4 {
+                let lane = g * 4 + k;
+                let (o, d, t, s) = if lane < n {
+                    (origin[lane], dir[lane], tmax(lane), skip[lane])
+                } else {
+                    (Vec3::ZERO, Vec3::ZERO, -1.0, NONE)
+                };
+                for axis in 0..3 {
+                    self.o[axis][g].as_array_mut()[k] = o[axis];
+                    self.d[axis][g].as_array_mut()[k] = d[axis];
+                    let flat = d[axis].abs() < f32::MIN_POSITIVE;
+                    self.any_flat |= flat && lane < n;
+                    self.flat[axis][g].as_array_mut()[k] = if flat { ALL.as_array_ref()[0] } else { 0.0 };
+                    self.inv[axis][g].as_array_mut()[k] = if flat { 0.0 } else { 1.0 / d[axis] };
+                }
+                self.tmax[g].as_array_mut()[k] = t;
+                self.skip[g].as_array_mut()[k] = s as i32;
+            }
+        }
+        self.best[..n].fill(NONE);
+    }
+
+    /// Tests `item` against the first `n` rays, keeping each ray's nearest hit.
+    #[inline(always)]
+    fn test(&mut self, objects: &[Object], item: &Item, n: usize) {
+        if let (Some(cone), Some((centre, radius))) = (self.cone, item.bound)
+            && !cone.may_meet(centre, radius)
+        {
+            return;
+        }
+        if self.any_flat {
+            self.test_groups::<true>(objects, item, n);
+        } else {
+            self.test_groups::<false>(objects, item, n);
+        }
+    }
+
+    #[inline(always)]
+    fn test_groups<const FLAT: bool>(&mut self, objects: &[Object], item: &Item, n: usize) {
+        let skip = i32x4::splat(item.object as i32);
+        for g in 0..n.div_ceil(4) {
+            let (o, d) = ([self.o[0][g], self.o[1][g], self.o[2][g]], [self.d[0][g], self.d[1][g], self.d[2][g]]);
+            let tmax = self.tmax[g];
+            let skipped = self.skip[g].cmp_eq(skip).move_mask();
+            match item.test {
+                Test::Sphere { centre, radius2, radius } => {
+                    let flat = [self.flat[0][g], self.flat[1][g], self.flat[2][g]];
+                    let inv = [self.inv[0][g], self.inv[1][g], self.inv[2][g]];
+                    let r = Vec3::splat(radius);
+                    if slabs::<FLAT>(o, inv, flat, centre - r, centre + r, tmax) & !skipped == 0 {
+                        continue;
+                    }
+                    let (t, met) = sphere(o, d, centre, radius2, tmax);
+                    self.keep(g, met & !skipped, t, item.object, Vec3::ZERO);
+                }
+                Test::Plane { normal, offset } => {
+                    let (t, met) = plane(o, d, normal, offset, tmax);
+                    self.keep(g, met & !skipped, t, item.object, Vec3::Y);
+                }
+                Test::Boxed { min, max } => {
+                    let flat = [self.flat[0][g], self.flat[1][g], self.flat[2][g]];
+                    let inv = [self.inv[0][g], self.inv[1][g], self.inv[2][g]];
+                    let mut met = slabs::<FLAT>(o, inv, flat, min, max, tmax) & !skipped;
+                    while met != 0 {
+                        let k = met.trailing_zeros() as usize;
+                        met &= met - 1;
+                        let lane = g * 4 + k;
+                        let (ray_o, ray_d) = (lane_vec(&o, k), lane_vec(&d, k));
+                        let limit = self.tmax[g].as_array_ref()[k];
+                        if let Some(c) = objects[item.object as usize].intersect(ray_o, ray_d, 0.0, limit) {
+                            self.tmax[g].as_array_mut()[k] = c.t;
+                            self.best[lane] = item.object;
+                            self.hit[lane] = c;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Keeps the hits `t` of the lanes of group `g` set in `met` (a world-space test's: no part,
+    /// its normal found later).
+    #[inline(always)]
+    fn keep(&mut self, g: usize, mut met: i32, t: f32x4, object: u32, normal: Vec3) {
+        while met != 0 {
+            let k = met.trailing_zeros() as usize;
+            met &= met - 1;
+            let t = t.as_array_ref()[k];
+            self.tmax[g].as_array_mut()[k] = t;
+            self.best[g * 4 + k] = object;
+            self.hit[g * 4 + k] = ShapeHit { t, normal, part: 0, bary: glam::Vec2::ZERO };
+        }
+    }
+}
+
+#[inline(always)]
+fn lane_vec(v: &[f32x4; 3], k: usize) -> Vec3 {
+    Vec3::new(v[0].as_array_ref()[k], v[1].as_array_ref()[k], v[2].as_array_ref()[k])
+}
+
+/// `0 < t < tmax`, as [`Object::intersect`] accepts a crossing.
+#[inline(always)]
+fn within(t: f32x4, tmax: f32x4) -> f32x4 {
+    t.cmp_gt(f32x4::ZERO) & t.cmp_lt(tmax)
+}
+
+/// `a · b` in the order of glam's `Vec3::dot`: `(x x' + y y') + z z'`.
+#[inline(always)]
+fn dot(a: [f32x4; 3], b: [f32x4; 3]) -> f32x4 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The sphere test of [`Object::intersect`] (`sphere_roots_world`, then the nearer root within
+/// range, else the farther) on four rays: the same operations in the same order, so the same
+/// bits. Returns the distances and the mask of lanes that hit.
+#[inline(always)]
+fn sphere(o: [f32x4; 3], d: [f32x4; 3], centre: Vec3, radius2: f32, tmax: f32x4) -> (f32x4, i32) {
+    let oc = [o[0] - f32x4::splat(centre.x), o[1] - f32x4::splat(centre.y), o[2] - f32x4::splat(centre.z)];
+    let r2 = f32x4::splat(radius2);
+    let a = dot(d, d);
+    let b = dot(oc, d);
+    let s = b / a;
+    let q = [oc[0] - s * d[0], oc[1] - s * d[1], oc[2] - s * d[2]];
+    let disc = a * (r2 - dot(q, q));
+    let c = dot(oc, oc) - r2;
+    let h = (b + disc.sqrt().copysign(b)) ^ f32x4::splat(-0.0);
+    let (r0, r1) = (h / a, c / h);
+    let ordered = r0.cmp_le(r1);
+    let (t0, t1) = (ordered.blend(r0, r1), ordered.blend(r1, r0));
+    let (ok0, ok1) = (within(t0, tmax), within(t1, tmax));
+    let real = a.cmp_ne(f32x4::ZERO) & disc.cmp_ge(f32x4::ZERO) & h.cmp_ne(f32x4::ZERO);
+    (ok0.blend(t0, t1), (real & (ok0 | ok1)).move_mask())
+}
+
+/// The plane test of [`Object::intersect`] on four rays, with the same bits.
+#[inline(always)]
+fn plane(o: [f32x4; 3], d: [f32x4; 3], normal: Vec3, offset: f32, tmax: f32x4) -> (f32x4, i32) {
+    let n = [f32x4::splat(normal.x), f32x4::splat(normal.y), f32x4::splat(normal.z)];
+    let along = dot(n, d);
+    let t = (f32x4::splat(offset) - dot(n, o)) / along;
+    (t, (along.cmp_ne(f32x4::ZERO) & within(t, tmax)).move_mask())
+}
+
+/// The lanes whose ray meets the box `[min, max]` within `[0, tmax]` (faces included; a flat
+/// axis by the origin's position).
+#[inline(always)]
+fn slabs<const FLAT: bool>(o: [f32x4; 3], inv: [f32x4; 3], flat: [f32x4; 3], min: Vec3, max: Vec3, tmax: f32x4) -> i32 {
+    let mut near = f32x4::ZERO;
+    let mut far = tmax;
+    let mut inside = ALL;
+    for axis in 0..3 {
+        let (lo, hi) = (f32x4::splat(min[axis]), f32x4::splat(max[axis]));
+        let (t_lo, t_hi) = ((lo - o[axis]) * inv[axis], (hi - o[axis]) * inv[axis]);
+        if FLAT {
+            near = flat[axis].blend(near, near.max(t_lo.min(t_hi)));
+            far = flat[axis].blend(far, far.min(t_lo.max(t_hi)));
+            inside &= flat[axis].blend(lo.cmp_le(o[axis]) & hi.cmp_ge(o[axis]), inside);
+        } else {
+            near = near.max(t_lo.min(t_hi));
+            far = far.min(t_lo.max(t_hi));
+        }
+    }
+    (near.cmp_le(far) & inside).move_mask()
+}
+
+/// Where every ray of a block stays: within `spread` of the cone from `apex` around the unit
+/// `axis` whose half-angle has sine `sin` and cosine `cos` (both a little generous, so rounding
+/// never drops an object a ray meets).
+#[derive(Clone, Copy, Debug)]
+struct Cone {
+    apex: Vec3,
+    spread: f32,
+    axis: Vec3,
+    cos: f32,
+    sin: f32,
+}
+
+impl Cone {
+    /// The cone of the rays `origin[i] + t dir[i]`, `t ≥ 0`; `None` if their directions spread
+    /// over more than a half-space (or one is zero or not finite).
+    fn of(origin: &[Vec3], dir: &[Vec3]) -> Option<Cone> {
+        let mut unit = [Vec3::ZERO; BLOCK];
+        let (mut lo, mut hi, mut sum) = (Vec3::INFINITY, Vec3::NEG_INFINITY, Vec3::ZERO);
+        for ((o, d), u) in origin.iter().zip(dir).zip(&mut unit) {
+            (lo, hi) = (lo.min(*o), hi.max(*o));
+            *u = *d * d.length_recip();
+            sum += *u;
+        }
+        let apex = (lo + hi) * 0.5;
+        let axis = sum.try_normalize()?;
+        let (mut spread2, mut sin2, mut cos) = (0.0f32, 0.0f32, 1.0f32);
+        for (o, u) in origin.iter().zip(&unit[..origin.len()]) {
+            spread2 = spread2.max((*o - apex).length_squared());
+            sin2 = sin2.max(u.cross(axis).length_squared());
+            cos = cos.min(u.dot(axis));
+        }
+        // `cos > 0`: within a half-space (false for a NaN from a zero or infinite direction).
+        if cos.is_nan() || cos <= 0.0 {
+            return None;
+        }
+        let sin = sin2.sqrt() * (1.0 + 1e-3) + 1e-6;
+        let spread = spread2.sqrt() * (1.0 + 1e-4) + apex.abs().max_element() * 1e-6;
+        let cone = Cone { apex, spread, axis, cos: (1.0 - sin * sin).max(0.0).sqrt(), sin };
+        (sin < 1.0 && apex.is_finite() && spread.is_finite()).then_some(cone)
+    }
+
+    /// Whether a ray of the block may meet the ball of `radius` around `centre`: the ball comes
+    /// within `spread` of the cone.
+    #[inline]
+    fn may_meet(&self, centre: Vec3, radius: f32) -> bool {
+        let v = centre - self.apex;
+        let r = (radius + self.spread) * (1.0 + 1e-4) + v.length() * 1e-5;
+        let vv = v.dot(v);
+        if vv <= r * r {
+            return true;
+        }
+        // In the plane of the axis and the centre: x along the axis, y away from it.
+        let (x, y) = (v.dot(self.axis), v.cross(self.axis).length());
+        // Beyond the apex's side (the nearest point of the cone is its apex) or within `r` of
+        // its side.
+        x * self.cos + y * self.sin > 0.0 && y * self.cos - x * self.sin <= r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{Affine3A, Quat, Vec3};
+
+    use super::{BLOCK, Cone, MOST_OBJECTS};
+    use crate::{Geometry, NO_SKIP, Object, Origin, Shape};
+
+    /// A scene of `count` objects of every kind, placed at random within a few units.
+    fn scene(f: &mut impl FnMut(f32, f32) -> f32, count: usize) -> Geometry {
+        let kinds = [
+            Shape::Sphere,
+            Shape::Sphere,
+            Shape::Cube,
+            Shape::Plane,
+            Shape::Cylinder,
+            Shape::Cone,
+            Shape::Torus { minor: 0.3 },
+            Shape::Disk,
+        ];
+        let objects = (0..count)
+            .map(|k| {
+                let shape = kinds[(f(0.0, kinds.len() as f32) as usize).min(kinds.len() - 1)].clone();
+                // Every other sphere scaled the same on every axis (the world-space test).
+                let s = f(0.3, 1.5);
+                let scale = if k % 2 == 0 { Vec3::splat(s) } else { Vec3::new(s, f(0.3, 1.5), f(0.3, 1.5)) };
+                let turn = Quat::from_euler(glam::EulerRot::XYZ, f(-3.0, 3.0), f(-3.0, 3.0), f(-3.0, 3.0));
+                let at = Vec3::new(f(-6.0, 6.0), f(-6.0, 6.0), f(-6.0, 6.0));
+                Object::new(shape, Affine3A::from_scale_rotation_translation(scale, turn, at), 0).unwrap()
+            })
+            .collect();
+        Geometry::new(objects)
+    }
+
+    #[test]
+    fn every_ray_gets_the_hit_a_lone_query_gives_it() {
+        let mut f = crate::testing::uniform(0x9E37_79B9_7F4A_7C15);
+        let mut hits = 0;
+        for case in 0..300 {
+            let g = scene(&mut f, 1 + case % MOST_OBJECTS);
+            assert!(!g.stream.is_empty() || g.lone_mesh, "a small scene is traced object by object");
+            let (mut origin, mut dir, mut skip, mut limit) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+            // A camera's rays (one origin, close directions), rays grazing an object's bounding
+            // sphere (where a cull that is too tight would lose hits), and rays in every direction.
+            let eye = Vec3::new(f(-15.0, 15.0), f(-15.0, 15.0), f(-15.0, 15.0));
+            let aim = Vec3::new(f(-4.0, 4.0), f(-4.0, 4.0), f(-4.0, 4.0));
+            for k in 0..150 {
+                let (o, d) = match case % 3 {
+                    0 => (eye, aim - eye + Vec3::new(f(-0.3, 0.3), f(-0.3, 0.3), f(-0.3, 0.3))),
+                    1 => {
+                        let o = g.stream[k % g.stream.len()];
+                        let (centre, radius) = o.bound.unwrap_or((Vec3::ZERO, 1.0));
+                        let side = (centre - eye).normalize().any_orthonormal_vector();
+                        let edge = centre + side * radius * (1.0 + f(-1e-3, 1e-3));
+                        (eye, edge - eye)
+                    }
+                    _ => (
+                        Vec3::new(f(-10.0, 10.0), f(-10.0, 10.0), f(-10.0, 10.0)),
+                        Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)),
+                    ),
+                };
+                origin.push(o);
+                dir.push(d);
+                skip.push(if k % 7 == 0 { (k % g.objects.len()) as u32 } else { NO_SKIP });
+                limit.push(if k % 5 == 0 { f(0.0, 20.0) } else { f32::INFINITY });
+            }
+            let mut each = vec![None; origin.len()];
+            g.closest_each(&origin, &skip, &dir, |l| limit[l], |l, i, c| each[l] = Some((i, *c)));
+            for l in 0..origin.len() {
+                let alone = g.closest(Origin { point: origin[l], skip: skip[l] }, dir[l], 0.0, limit[l]);
+                assert_eq!(each[l], alone, "case {case}, ray {l}: {} + t {}", origin[l], dir[l]);
+                // The same ray alone in its block.
+                let mut single = None;
+                g.closest_each(
+                    &origin[l..=l],
+                    &skip[l..=l],
+                    &dir[l..=l],
+                    |_| limit[l],
+                    |_, i, c| single = Some((i, *c)),
+                );
+                assert_eq!(single, alone, "case {case}, ray {l} alone");
+                hits += usize::from(alone.is_some());
+            }
+        }
+        assert!(hits > 10_000, "{hits} hits: the cases must hit things");
+    }
+
+    #[test]
+    fn a_block_cone_keeps_every_ball_one_of_its_rays_meets() {
+        let mut f = crate::testing::uniform(0x2545_F491_4F6C_DD1D);
+        let (mut met, mut culled) = (0, 0);
+        for case in 0..2_000 {
+            let spread = [0.0, 1e-3, 0.5, 3.0][case % 4];
+            let base = Vec3::new(f(-50.0, 50.0), f(-50.0, 50.0), f(-50.0, 50.0));
+            let towards = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0));
+            let width = [1e-4, 1e-2, 0.3, 1.5][case / 4 % 4];
+            let origin: Vec<Vec3> =
+                (0..BLOCK).map(|_| base + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * spread).collect();
+            let dir: Vec<Vec3> =
+                (0..BLOCK).map(|_| towards + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * width).collect();
+            let Some(cone) = Cone::of(&origin, &dir) else { continue };
+            for _ in 0..20 {
+                // A ball on one of the rays, just touching it or clear of all of them.
+                let k = (f(0.0, BLOCK as f32) as usize).min(BLOCK - 1);
+                let radius = f(1e-3, 2.0);
+                let along = origin[k] + dir[k].normalize() * f(0.0, 80.0);
+                let off = dir[k].normalize().any_orthonormal_vector() * radius * f(0.0, 0.999);
+                assert!(cone.may_meet(along + off, radius), "case {case}: a ball on ray {k} was culled");
+                met += 1;
+                let far = base - towards.normalize() * f(10.0, 100.0) * (1.0 + spread) + off;
+                culled += usize::from(!cone.may_meet(far, 0.5 * f(0.0, 1.0)) && spread < 1.0);
+            }
+        }
+        assert!(met > 10_000 && culled > 1_000, "{met} kept, {culled} culled");
+    }
+}
