@@ -149,13 +149,18 @@ impl Block {
                 for axis in 0..3 {
                     self.o[axis][g].as_array_mut()[k] = o[axis];
                     self.d[axis][g].as_array_mut()[k] = d[axis];
-                    let flat = d[axis].abs() < f32::MIN_POSITIVE;
-                    self.any_flat |= flat && lane < n;
-                    self.flat[axis][g].as_array_mut()[k] = if flat { ALL.as_array_ref()[0] } else { 0.0 };
-                    self.inv[axis][g].as_array_mut()[k] = if flat { 0.0 } else { 1.0 / d[axis] };
                 }
                 self.tmax[g].as_array_mut()[k] = t;
                 self.skip[g].as_array_mut()[k] = s as i32;
+            }
+            // Lanes past the end count as flat on no axis.
+            let valid = if (g + 1) * 4 <= n { 0b1111 } else { (1 << (n - g * 4)) - 1 };
+            for axis in 0..3 {
+                let d = self.d[axis][g];
+                let flat = d.abs().cmp_lt(f32x4::splat(f32::MIN_POSITIVE));
+                self.any_flat |= flat.move_mask() & valid != 0;
+                self.flat[axis][g] = flat;
+                self.inv[axis][g] = flat.blend(f32x4::ZERO, f32x4::ONE / d);
             }
         }
         self.best[..n].fill(NONE);
@@ -320,22 +325,26 @@ impl Cone {
     /// The cone of the rays `origin[i] + t dir[i]`, `t ≥ 0`; `None` if their directions spread
     /// over more than a half-space (or one is zero or not finite).
     fn of(origin: &[Vec3], dir: &[Vec3]) -> Option<Cone> {
-        let mut unit = [Vec3::ZERO; BLOCK];
         let (mut lo, mut hi, mut sum) = (Vec3::INFINITY, Vec3::NEG_INFINITY, Vec3::ZERO);
-        for ((o, d), u) in origin.iter().zip(dir).zip(&mut unit) {
+        for (o, d) in origin.iter().zip(dir) {
             (lo, hi) = (lo.min(*o), hi.max(*o));
-            *u = *d * d.length_recip();
-            sum += *u;
+            sum += *d;
         }
         let apex = (lo + hi) * 0.5;
+        // Any axis among the directions will do: the half-angle is measured from it.
         let axis = sum.try_normalize()?;
         let (mut spread2, mut sin2, mut cos) = (0.0f32, 0.0f32, 1.0f32);
-        for (o, u) in origin.iter().zip(&unit[..origin.len()]) {
+        for (o, d) in origin.iter().zip(dir) {
             spread2 = spread2.max((*o - apex).length_squared());
-            sin2 = sin2.max(u.cross(axis).length_squared());
-            cos = cos.min(u.dot(axis));
+            // sin² of the angle between `d` and the axis, and cos times |d|, without a root.
+            let inv_len2 = d.length_squared().recip();
+            if !inv_len2.is_finite() || inv_len2 <= 0.0 {
+                return None;
+            }
+            sin2 = sin2.max(d.cross(axis).length_squared() * inv_len2);
+            cos = cos.min(d.dot(axis));
         }
-        // `cos > 0`: within a half-space (false for a NaN from a zero or infinite direction).
+        // `cos > 0`: within a half-space (false for a NaN from a direction not finite).
         if cos.is_nan() || cos <= 0.0 {
             return None;
         }
