@@ -1,6 +1,7 @@
 //! The prepared scene geometry: objects as flat arrays, a BVH over the bounded ones, a list of
-//! the unbounded ones, closest-hit and exit queries in world space, and the one policy for where
-//! a secondary ray starts ([`Geometry::spawn`]).
+//! the unbounded ones, closest-hit and exit queries in world space (one ray at a time, or a
+//! chunk's rays together: [`Geometry::closest_each`]), and the one policy for where a secondary
+//! ray starts ([`Geometry::spawn`]).
 
 use glam::{Affine3A, Mat3A, Vec2, Vec3};
 
@@ -105,12 +106,7 @@ impl Object {
     pub(crate) fn stream_test(&self) -> crate::stream::Test {
         use crate::stream::Test;
         match self.fast {
-            // The box a little larger than the sphere: rounding never drops a ray that hits it.
-            Fast::Sphere { centre, radius2 } => Test::Sphere {
-                centre,
-                radius2,
-                radius: radius2.sqrt() * (1.0 + 1e-5) + centre.abs().max_element() * 1e-6,
-            },
+            Fast::Sphere { centre, radius2 } => Test::Sphere { centre, radius2 },
             Fast::Plane { normal, offset } => Test::Plane { normal, offset },
             Fast::None => match self.bounds() {
                 Some(b) => Test::Boxed { min: b.min, max: b.max },
