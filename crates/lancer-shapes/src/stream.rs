@@ -122,19 +122,7 @@ pub(crate) fn closest_each(
     tmax: impl Fn(usize) -> f32,
     mut found: impl FnMut(usize, u32, &ShapeHit),
 ) {
-    let mut block = Block {
-        o: [[f32x4::ZERO; GROUPS]; 3],
-        d: [[f32x4::ZERO; GROUPS]; 3],
-        inv: [[f32x4::ZERO; GROUPS]; 3],
-        flat: [[f32x4::ZERO; GROUPS]; 3],
-        pad: [f32x4::ZERO; GROUPS],
-        tmax: [f32x4::ZERO; GROUPS],
-        skip: [i32x4::ZERO; GROUPS],
-        any_flat: false,
-        cone: None,
-        best: [NONE; BLOCK],
-        hit: [ShapeHit { t: 0.0, normal: Vec3::ZERO, part: 0, bary: glam::Vec2::ZERO }; BLOCK],
-    };
+    let mut block = Block::new();
     for start in (0..origin.len()).step_by(BLOCK) {
         let n = (origin.len() - start).min(BLOCK);
         block.load(&origin[start..start + n], &skip[start..start + n], &dir[start..start + n], |l| tmax(start + l));
@@ -150,17 +138,33 @@ pub(crate) fn closest_each(
 }
 
 impl Block {
+    fn new() -> Block {
+        Block {
+            o: [[f32x4::ZERO; GROUPS]; 3],
+            d: [[f32x4::ZERO; GROUPS]; 3],
+            inv: [[f32x4::ZERO; GROUPS]; 3],
+            flat: [[f32x4::ZERO; GROUPS]; 3],
+            pad: [f32x4::ZERO; GROUPS],
+            tmax: [f32x4::ZERO; GROUPS],
+            skip: [i32x4::ZERO; GROUPS],
+            any_flat: false,
+            cone: None,
+            best: [NONE; BLOCK],
+            hit: [ShapeHit { t: 0.0, normal: Vec3::ZERO, part: 0, bary: glam::Vec2::ZERO }; BLOCK],
+        }
+    }
+
     fn load(&mut self, origin: &[Vec3], skip: &[u32], dir: &[Vec3], tmax: impl Fn(usize) -> f32) {
         let n = origin.len();
         self.any_flat = false;
-        self.cone = Cone::of(origin, dir);
         for g in 0..n.div_ceil(4) {
             for k in 0..4 {
                 let lane = g * 4 + k;
+                // Lanes past the end repeat the first ray, which they never hit anything of.
                 let (o, d, t, s) = if lane < n {
                     (origin[lane], dir[lane], tmax(lane), skip[lane])
                 } else {
-                    (Vec3::ZERO, Vec3::ZERO, -1.0, NONE)
+                    (origin[0], dir[0], -1.0, NONE)
                 };
                 for axis in 0..3 {
                     self.o[axis][g].as_array_mut()[k] = o[axis];
@@ -170,17 +174,16 @@ impl Block {
                 self.skip[g].as_array_mut()[k] = s as i32;
                 self.pad[g].as_array_mut()[k] = o.abs().max_element() * PAD;
             }
-            // Lanes past the end count as flat on no axis.
-            let valid = if (g + 1) * 4 <= n { 0b1111 } else { (1 << (n - g * 4)) - 1 };
             for axis in 0..3 {
                 let d = self.d[axis][g];
                 let flat = d.abs().cmp_lt(f32x4::splat(f32::MIN_POSITIVE));
-                self.any_flat |= flat.move_mask() & valid != 0;
+                self.any_flat |= flat.move_mask() != 0;
                 self.flat[axis][g] = flat;
                 self.inv[axis][g] = flat.blend(f32x4::ZERO, f32x4::ONE / d);
             }
         }
         self.best[..n].fill(NONE);
+        self.cone = Cone::of_groups(&self.o, &self.d, n.div_ceil(4));
     }
 
     /// Tests `item` against the first `n` rays, keeping each ray's nearest hit.
@@ -205,6 +208,9 @@ impl Block {
             let (o, d) = ([self.o[0][g], self.o[1][g], self.o[2][g]], [self.d[0][g], self.d[1][g], self.d[2][g]]);
             let tmax = self.tmax[g];
             let skipped = self.skip[g].cmp_eq(skip).move_mask();
+            if skipped == 0b1111 {
+                continue;
+            }
             match item.test {
                 Test::Sphere { centre, radius2 } => {
                     let (t, met) = sphere(o, d, centre, radius2, tmax);
@@ -346,37 +352,56 @@ struct Cone {
 }
 
 impl Cone {
-    /// The cone of the rays `origin[i] + t dir[i]`, `t ≥ 0`; `None` if their directions spread
-    /// over more than a half-space (or one is zero or not finite).
-    fn of(origin: &[Vec3], dir: &[Vec3]) -> Option<Cone> {
-        let (mut lo, mut hi, mut sum) = (Vec3::INFINITY, Vec3::NEG_INFINITY, Vec3::ZERO);
-        for (o, d) in origin.iter().zip(dir) {
-            if !o.is_finite() {
-                return None;
+    /// The cone of a block's rays `o + t d`, `t ≥ 0`, in its first `groups` groups of four;
+    /// `None` if their directions spread over more than a half-space (or one is zero or not
+    /// finite, or an origin is not finite).
+    fn of_groups(o: &[[f32x4; GROUPS]; 3], d: &[[f32x4; GROUPS]; 3], groups: usize) -> Option<Cone> {
+        let lanes = |v: f32x4| v.to_array();
+        let (mut lo, mut hi, mut sum) =
+            ([f32x4::splat(f32::INFINITY); 3], [f32x4::splat(f32::NEG_INFINITY); 3], [f32x4::ZERO; 3]);
+        let mut finite = ALL;
+        for g in 0..groups {
+            for axis in 0..3 {
+                let v = o[axis][g];
+                // Not NaN and not infinite: `min`/`max` would pass over a NaN.
+                finite &= v.abs().cmp_lt(f32x4::splat(f32::INFINITY));
+                (lo[axis], hi[axis]) = (lo[axis].min(v), hi[axis].max(v));
+                sum[axis] += d[axis][g];
             }
-            (lo, hi) = (lo.min(*o), hi.max(*o));
-            sum += *d;
         }
-        let apex = (lo + hi) * 0.5;
-        // Any axis among the directions will do: the half-angle is measured from it.
-        let axis = sum.try_normalize()?;
-        let (mut spread2, mut sin2, mut cos) = (0.0f32, 0.0f32, 1.0f32);
-        for (o, d) in origin.iter().zip(dir) {
-            spread2 = spread2.max((*o - apex).length_squared());
-            // sin² of the angle between `d` and the axis, and cos times |d|, without a root.
-            let inv_len2 = d.length_squared().recip();
-            if !inv_len2.is_finite() || inv_len2 <= 0.0 {
-                return None;
-            }
-            sin2 = sin2.max(d.cross(axis).length_squared() * inv_len2);
-            cos = cos.min(d.dot(axis));
-        }
-        // Within a half-space around the axis (the directions are finite and not zero here).
-        if cos <= 0.0 {
+        if finite.move_mask() != 0b1111 {
             return None;
         }
-        let sin = sin2.sqrt() * (1.0 + 1e-3) + 1e-6;
-        let spread = spread2.sqrt() * (1.0 + 1e-4) + apex.abs().max_element() * 1e-6;
+        let low = |v: f32x4| lanes(v).into_iter().fold(f32::INFINITY, f32::min);
+        let high = |v: f32x4| lanes(v).into_iter().fold(f32::NEG_INFINITY, f32::max);
+        let apex = Vec3::new(
+            (low(lo[0]) + high(hi[0])) * 0.5,
+            (low(lo[1]) + high(hi[1])) * 0.5,
+            (low(lo[2]) + high(hi[2])) * 0.5,
+        );
+        // Any axis among the directions will do: the half-angle is measured from it.
+        let axis = Vec3::new(lanes(sum[0]).iter().sum(), lanes(sum[1]).iter().sum(), lanes(sum[2]).iter().sum())
+            .try_normalize()?;
+        let (c, a) = (apex.to_array().map(f32x4::splat), axis.to_array().map(f32x4::splat));
+        let (mut spread2, mut sin2, mut cos, mut sound) = (f32x4::ZERO, f32x4::ZERO, f32x4::ONE, ALL);
+        for g in 0..groups {
+            let v = [o[0][g] - c[0], o[1][g] - c[1], o[2][g] - c[2]];
+            spread2 = spread2.max(dot(v, v));
+            let w = [d[0][g], d[1][g], d[2][g]];
+            // sin² of the angle between `w` and the axis, and its cosine times |w|, without a
+            // root; a zero, infinite or NaN direction makes `len2` unsound.
+            let len2 = dot(w, w);
+            sound &= len2.cmp_gt(f32x4::ZERO) & len2.cmp_lt(f32x4::splat(f32::INFINITY));
+            let x = [w[1] * a[2] - w[2] * a[1], w[2] * a[0] - w[0] * a[2], w[0] * a[1] - w[1] * a[0]];
+            sin2 = sin2.max(dot(x, x) / len2);
+            cos = cos.min(dot(w, a));
+        }
+        // Within a half-space around the axis.
+        if sound.move_mask() != 0b1111 || cos.cmp_gt(f32x4::ZERO).move_mask() != 0b1111 {
+            return None;
+        }
+        let sin = high(sin2).sqrt() * (1.0 + 1e-3) + 1e-6;
+        let spread = high(spread2).sqrt() * (1.0 + 1e-4) + apex.abs().max_element() * 1e-6;
         let cone = Cone { apex, spread, axis, cos: (1.0 - sin * sin).max(0.0).sqrt(), sin };
         (sin < 1.0 && apex.is_finite() && spread.is_finite()).then_some(cone)
     }
@@ -536,7 +561,9 @@ mod tests {
                 (0..BLOCK).map(|_| base + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * spread).collect();
             let dir: Vec<Vec3> =
                 (0..BLOCK).map(|_| towards + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * width).collect();
-            let Some(cone) = Cone::of(&origin, &dir) else { continue };
+            let mut block = super::Block::new();
+            block.load(&origin, &[super::NONE; BLOCK], &dir, |_| f32::INFINITY);
+            let Some(cone) = block.cone else { continue };
             for _ in 0..20 {
                 // A ball on one of the rays, just touching it or clear of all of them.
                 let k = (f(0.0, BLOCK as f32) as usize).min(BLOCK - 1);
