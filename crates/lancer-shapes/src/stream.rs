@@ -428,7 +428,7 @@ impl Cone {
 mod tests {
     use glam::{Affine3A, Quat, Vec3};
 
-    use super::{BLOCK, Cone, MOST_OBJECTS};
+    use super::{BLOCK, MOST_OBJECTS};
     use crate::{Geometry, NO_SKIP, Object, Shape, ShapeHit};
 
     /// A scene of `count` objects of every kind (a mesh too), `size` across, `far` away from
