@@ -118,6 +118,11 @@ pub struct Hits {
     pub front: Vec<bool>,
     /// Object index in the prepared scene, or [`NO_HIT`].
     pub object: Vec<u32>,
+    /// The object's material (an index into the prepared material table).
+    pub material: Vec<u32>,
+    /// `Col_Ω`: the material's colour at the hit (its pattern or texture evaluated there), found
+    /// once for every term that reads it.
+    pub color: Vec<Vec3>,
 }
 
 impl Hits {
@@ -136,6 +141,8 @@ impl Hits {
         fill(&mut self.error, n, 0.0);
         fill(&mut self.front, n, true);
         fill(&mut self.object, n, NO_HIT);
+        fill(&mut self.material, n, 0);
+        fill(&mut self.color, n, Vec3::ZERO);
     }
 
     /// The shading normal facing the incoming ray (the outward one turned round on a back-face

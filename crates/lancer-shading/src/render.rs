@@ -429,6 +429,8 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
             hits.error[lane] = h.error;
             hits.front[lane] = h.front;
             hits.object[lane] = h.object;
+            hits.material[lane] = objects[i as usize].material;
+            hits.color[lane] = ctx.surface_color(i, h.local, h.uv);
         };
         ctx.geometry.closest_each(&rays.origin, &rays.skip, &rays.dir, |_| f32::INFINITY, found);
     }
@@ -447,7 +449,7 @@ fn visibility_system(
     let shadows = &pipeline.shadows.model;
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         for lane in 0..hits.object.len() {
-            if hits.object[lane] == NO_HIT || !lit[ctx.material_index(hits.object[lane])] {
+            if hits.object[lane] == NO_HIT || !lit[hits.material[lane] as usize] {
                 continue;
             }
             let hit = ctx.hit(hits, lane);

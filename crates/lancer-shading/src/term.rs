@@ -43,17 +43,24 @@ impl ShadeContext<'_> {
     /// The material of the object hit in `lane` (which must have a hit).
     #[inline]
     pub fn material(&self, hits: &Hits, lane: usize) -> &Material {
-        self.material_of(hits.object[lane])
+        &self.materials[hits.material[lane] as usize]
     }
 
-    /// `Col_Ω` at the hit of `lane`.
+    /// `Col_Ω` at the hit of `lane`, as the trace system found it ([`ShadeContext::surface_color`]).
     #[inline]
     pub fn color(&self, hits: &Hits, lane: usize) -> Vec3 {
-        let object = &self.geometry.objects[hits.object[lane] as usize];
+        hits.color[lane]
+    }
+
+    /// `Col_Ω` of object `object` at a hit at `local` (object space) with texture coordinates
+    /// `uv`: the trace system's one evaluation per hit.
+    #[inline]
+    pub fn surface_color(&self, object: u32, local: Vec3, uv: glam::Vec2) -> Vec3 {
+        let object = &self.geometry.objects[object as usize];
         let material = &self.materials[object.material as usize];
         match material.pattern {
             lancer_core::Pattern::Solid => material.color,
-            _ => crate::surface_color(material, &object.shape, hits.local[lane], hits.uv[lane], self.textures),
+            _ => crate::surface_color(material, &object.shape, local, uv, self.textures),
         }
     }
 
