@@ -94,7 +94,8 @@ impl Rays {
     }
 }
 
-/// Closest hits of a chunk's rays, one entry per lane (written by the trace system).
+/// Closest hits of a chunk's rays, one entry per lane (written by the trace system; a lane's columns
+/// other than `object` mean something only where it hit).
 #[derive(Clone, Debug, Default)]
 pub struct Hits {
     /// Distance along the ray.
@@ -126,23 +127,22 @@ pub struct Hits {
 }
 
 impl Hits {
-    /// Makes these columns `n` lanes of misses, reusing their capacity.
+    /// Makes these columns `n` lanes of misses, reusing their capacity. Only `object` is
+    /// rewritten in full ([`NO_HIT`]); the other columns keep whatever their lanes held, as a
+    /// lane's values mean something only once the trace system has written its hit.
     pub fn reset(&mut self, n: usize) {
-        fn fill<T: Clone>(v: &mut Vec<T>, n: usize, x: T) {
-            v.clear();
-            v.resize(n, x);
-        }
-        fill(&mut self.t, n, f32::INFINITY);
-        fill(&mut self.point, n, Vec3::ZERO);
-        fill(&mut self.local, n, Vec3::ZERO);
-        fill(&mut self.uv, n, glam::Vec2::ZERO);
-        fill(&mut self.normal, n, Vec3::ZERO);
-        fill(&mut self.shading, n, Vec3::ZERO);
-        fill(&mut self.error, n, 0.0);
-        fill(&mut self.front, n, true);
-        fill(&mut self.object, n, NO_HIT);
-        fill(&mut self.material, n, 0);
-        fill(&mut self.color, n, Vec3::ZERO);
+        self.t.resize(n, f32::INFINITY);
+        self.point.resize(n, Vec3::ZERO);
+        self.local.resize(n, Vec3::ZERO);
+        self.uv.resize(n, glam::Vec2::ZERO);
+        self.normal.resize(n, Vec3::ZERO);
+        self.shading.resize(n, Vec3::ZERO);
+        self.error.resize(n, 0.0);
+        self.front.resize(n, true);
+        self.material.resize(n, 0);
+        self.color.resize(n, Vec3::ZERO);
+        self.object.clear();
+        self.object.resize(n, NO_HIT);
     }
 
     /// The shading normal facing the incoming ray (the outward one turned round on a back-face
