@@ -140,6 +140,37 @@ impl Target {
     }
 }
 
+/// The share of the machine's CPU time other programs used over half a second (from
+/// `/proc/stat`); `None` where that file does not exist (not Linux).
+fn busy_share() -> Option<f64> {
+    let sample = || -> Option<(u64, u64)> {
+        let stat = std::fs::read_to_string("/proc/stat").ok()?;
+        let fields: Vec<u64> =
+            stat.lines().next()?.split_whitespace().skip(1).filter_map(|f| f.parse().ok()).collect();
+        // user nice system idle iowait irq softirq steal: idle and iowait are idle time.
+        let idle = fields.get(3)? + fields.get(4).copied().unwrap_or(0);
+        Some((fields.iter().take(8).sum(), idle))
+    };
+    let (total0, idle0) = sample()?;
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let (total1, idle1) = sample()?;
+    let total = total1.saturating_sub(total0).max(1);
+    Some(1.0 - idle1.saturating_sub(idle0) as f64 / total as f64)
+}
+
+/// Warns when other programs keep the CPU busy: the timings would be slower than the machine is.
+fn check_quiet(when: &str) -> Option<f64> {
+    let busy = busy_share();
+    if let Some(b) = busy.filter(|&b| b > 0.15) {
+        eprintln!(
+            "warning: {when} the benchmark, other programs used {:.0} % of the CPU: the figures are slower than \
+             this machine is (close them and run again)",
+            b * 100.0
+        );
+    }
+    busy
+}
+
 /// `cargo xtask bench [--runs N]`: prints the tables and the targets, and writes them as JSON to
 /// `target/bench/bench.json`.
 pub fn run(args: &[String]) -> Result<()> {
@@ -150,6 +181,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let runs: usize =
         options.iter().find(|(k, _)| k == "runs").map_or(Ok(5), |(_, v)| v.parse()).context("--runs needs a number")?;
     let lancer = build_renderer()?;
+    let busy_before = check_quiet("before");
     let anchor = root().join("scenes/bench/anchor.toml");
     let pov = root().join("scenes/bench/anchor.pov");
     let has_pov = povray_installed();
@@ -411,6 +443,9 @@ pub fn run(args: &[String]) -> Result<()> {
         .map(|t| serde_json::json!({ "what": t.what, "measured": t.measured, "bound": t.bound, "at_most": t.at_most, "met": t.met() }))
         .collect();
     json.insert("targets".into(), rows.into());
+    let busy_after = check_quiet("after");
+    json.insert("cpu_busy_before".into(), busy_before.into());
+    json.insert("cpu_busy_after".into(), busy_after.into());
     let dir = root().join("target/bench");
     std::fs::create_dir_all(&dir)?;
     let path = dir.join("bench.json");
