@@ -145,8 +145,7 @@ impl Target {
 fn busy_share() -> Option<f64> {
     let sample = || -> Option<(u64, u64)> {
         let stat = std::fs::read_to_string("/proc/stat").ok()?;
-        let fields: Vec<u64> =
-            stat.lines().next()?.split_whitespace().skip(1).filter_map(|f| f.parse().ok()).collect();
+        let fields: Vec<u64> = stat.lines().next()?.split_whitespace().skip(1).filter_map(|f| f.parse().ok()).collect();
         // user nice system idle iowait irq softirq steal: idle and iowait are idle time.
         let idle = fields.get(3)? + fields.get(4).copied().unwrap_or(0);
         Some((fields.iter().take(8).sum(), idle))

@@ -429,13 +429,26 @@ mod tests {
     use glam::{Affine3A, Quat, Vec3};
 
     use super::{BLOCK, MOST_OBJECTS};
-    use crate::{Geometry, NO_SKIP, Object, Shape, ShapeHit};
+    use crate::{Csg, CsgNode, CsgOp, Geometry, NO_SKIP, Object, Shape, ShapeHit};
 
     /// A scene of `count` objects of every kind (a mesh too), `size` across, `far` away from
     /// the world's origin.
     fn scene(f: &mut impl FnMut(f32, f32) -> f32, count: usize, size: f32, far: Vec3) -> Geometry {
         let mesh = Shape::Mesh(std::sync::Arc::new(crate::mesh::tests::octahedron()));
+        // A sphere minus a cube (bounded) and a sphere joined to a plane's half-space (unbounded:
+        // tested behind an infinite box).
+        let csg = |op: CsgOp, second: Shape| {
+            let leaf = |shape: Shape, at: Vec3| CsgNode::Leaf { shape, node_from_leaf: Affine3A::from_translation(at) };
+            let nodes = vec![
+                leaf(Shape::Sphere, Vec3::ZERO),
+                leaf(second, Vec3::new(0.5, 0.3, 0.0)),
+                CsgNode::Op { op, a: 0, b: 1 },
+            ];
+            Shape::Csg(std::sync::Arc::new(Csg::new(nodes, 2).unwrap()))
+        };
         let kinds = [
+            csg(CsgOp::Difference, Shape::Cube),
+            csg(CsgOp::Union, Shape::Plane),
             Shape::Sphere,
             Shape::Sphere,
             Shape::Cube,
@@ -554,26 +567,31 @@ mod tests {
         let (mut met, mut culled) = (0, 0);
         for case in 0..2_000 {
             let spread = [0.0, 1e-3, 0.5, 3.0][case % 4];
-            let base = Vec3::new(f(-50.0, 50.0), f(-50.0, 50.0), f(-50.0, 50.0));
+            // Blocks near the origin and 10⁵ units away; blocks of one ray too.
+            let far_away = if case % 8 == 7 { 2_000.0 } else { 1.0 };
+            let base = Vec3::new(f(-50.0, 50.0), f(-50.0, 50.0), f(-50.0, 50.0)) * far_away;
+            let lanes = if case % 16 == 5 { 1 } else { BLOCK };
             let towards = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0));
             let width = [1e-4, 1e-2, 0.3, 1.5][case / 4 % 4];
             let origin: Vec<Vec3> =
-                (0..BLOCK).map(|_| base + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * spread).collect();
+                (0..lanes).map(|_| base + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * spread).collect();
             let dir: Vec<Vec3> =
-                (0..BLOCK).map(|_| towards + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * width).collect();
+                (0..lanes).map(|_| towards + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * width).collect();
             let mut block = super::Block::new();
-            block.load(&origin, &[super::NONE; BLOCK], &dir, |_| f32::INFINITY);
+            block.load(&origin, &[super::NONE; BLOCK][..lanes], &dir, |_| f32::INFINITY);
             let Some(cone) = block.cone else { continue };
             for _ in 0..20 {
                 // A ball on one of the rays, just touching it or clear of all of them.
-                let k = (f(0.0, BLOCK as f32) as usize).min(BLOCK - 1);
+                let k = (f(0.0, lanes as f32) as usize).min(lanes - 1);
                 let radius = f(1e-3, 2.0);
                 let along = origin[k] + dir[k].normalize() * f(0.0, 80.0);
-                let off = dir[k].normalize().any_orthonormal_vector() * radius * f(0.0, 0.999);
+                // Half the balls graze the ray: their surface a millionth of the radius from it.
+                let reach = if case % 2 == 0 { 1.0 - 1e-6 } else { f(0.0, 0.999) };
+                let off = dir[k].normalize().any_orthonormal_vector() * radius * reach;
                 assert!(cone.may_meet(along + off, radius), "case {case}: a ball on ray {k} was culled");
                 met += 1;
                 let far = base - towards.normalize() * f(10.0, 100.0) * (1.0 + spread) + off;
-                culled += usize::from(!cone.may_meet(far, 0.5 * f(0.0, 1.0)) && spread < 1.0);
+                culled += usize::from(!cone.may_meet(far, 0.5 * f(0.0, 1.0)) && spread < 1.0 && far_away == 1.0);
             }
         }
         assert!(met > 10_000 && culled > 1_000, "{met} kept, {culled} culled");
