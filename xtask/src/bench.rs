@@ -143,16 +143,23 @@ impl Target {
 /// The share of the machine's CPU time other programs used over half a second (from
 /// `/proc/stat`); `None` where that file does not exist (not Linux).
 fn busy_share() -> Option<f64> {
-    let sample = || -> Option<(u64, u64)> {
-        let stat = std::fs::read_to_string("/proc/stat").ok()?;
-        let fields: Vec<u64> = stat.lines().next()?.split_whitespace().skip(1).filter_map(|f| f.parse().ok()).collect();
-        // user nice system idle iowait irq softirq steal: idle and iowait are idle time.
+    let first = std::fs::read_to_string("/proc/stat").ok()?;
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let second = std::fs::read_to_string("/proc/stat").ok()?;
+    busy_between(&first, &second)
+}
+
+/// The busy share of all CPUs between two readings of `/proc/stat`: 1 − idle time / all time,
+/// from the first (`cpu`) line's user, nice, system, idle, iowait, irq, softirq and steal
+/// counters (idle and iowait are idle).
+fn busy_between(first: &str, second: &str) -> Option<f64> {
+    let counters = |stat: &str| -> Option<(u64, u64)> {
+        let line = stat.lines().next()?;
+        let fields: Vec<u64> = line.strip_prefix("cpu ")?.split_whitespace().filter_map(|f| f.parse().ok()).collect();
         let idle = fields.get(3)? + fields.get(4).copied().unwrap_or(0);
         Some((fields.iter().take(8).sum(), idle))
     };
-    let (total0, idle0) = sample()?;
-    std::thread::sleep(std::time::Duration::from_millis(500));
-    let (total1, idle1) = sample()?;
+    let ((total0, idle0), (total1, idle1)) = (counters(first)?, counters(second)?);
     let total = total1.saturating_sub(total0).max(1);
     Some(1.0 - idle1.saturating_sub(idle0) as f64 / total as f64)
 }
@@ -162,8 +169,8 @@ fn check_quiet(when: &str) -> Option<f64> {
     let busy = busy_share();
     if let Some(b) = busy.filter(|&b| b > 0.15) {
         eprintln!(
-            "warning: {when} the benchmark, other programs used {:.0} % of the CPU: the figures are slower than \
-             this machine is (close them and run again)",
+            "warning: {when} the benchmark, other programs (or the host) used {:.0} % of the CPU: the figures \
+             are slower than this machine is (close them and run again)",
             b * 100.0
         );
     }
@@ -451,4 +458,21 @@ pub fn run(args: &[String]) -> Result<()> {
     std::fs::write(&path, serde_json::to_string_pretty(&serde_json::Value::Object(json))?)?;
     println!("\n(written as JSON to {})", path.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::busy_between;
+
+    #[test]
+    fn the_busy_share_counts_idle_and_iowait_as_idle() {
+        let first = "cpu  100 0 50 800 50 0 0 0 0 0\ncpu0 50 0 25 400 25 0 0 0 0 0\n";
+        // 100 more ticks: 30 user, 10 system, 50 idle, 10 iowait.
+        let second = "cpu  130 0 60 850 60 0 0 0 0 0\ncpu0 65 0 30 425 30 0 0 0 0 0\n";
+        let busy = busy_between(first, second).unwrap();
+        assert!((busy - 0.4).abs() < 1e-12, "{busy}");
+        // Nothing read: no share.
+        assert_eq!(busy_between("", second), None);
+        assert_eq!(busy_between("intr 5\n", second), None);
+    }
 }

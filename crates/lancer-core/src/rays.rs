@@ -131,6 +131,11 @@ impl Hits {
     /// rewritten in full ([`NO_HIT`]); the other columns keep whatever their lanes held, as a
     /// lane's values mean something only once the trace system has written its hit.
     pub fn reset(&mut self, n: usize) {
+        if cfg!(debug_assertions) {
+            // Debug builds (the test suite) fill every lane with values no hit has, so a reader
+            // of a lane without a hit shows up as a change between thread counts or chunk sizes.
+            self.poison();
+        }
         self.t.resize(n, f32::INFINITY);
         self.point.resize(n, Vec3::ZERO);
         self.local.resize(n, Vec3::ZERO);
@@ -143,6 +148,19 @@ impl Hits {
         self.color.resize(n, Vec3::ZERO);
         self.object.clear();
         self.object.resize(n, NO_HIT);
+    }
+
+    /// NaN and out-of-range values in every column but `object`.
+    fn poison(&mut self) {
+        self.t.fill(f32::NAN);
+        self.point.fill(Vec3::NAN);
+        self.local.fill(Vec3::NAN);
+        self.uv.fill(glam::Vec2::NAN);
+        self.normal.fill(Vec3::NAN);
+        self.shading.fill(Vec3::NAN);
+        self.error.fill(f32::NAN);
+        self.material.fill(u32::MAX);
+        self.color.fill(Vec3::NAN);
     }
 
     /// The shading normal facing the incoming ray (the outward one turned round on a back-face

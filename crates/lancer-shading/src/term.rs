@@ -36,8 +36,7 @@ impl ShadeContext<'_> {
     /// texture coordinates). The one colour lookup, for terms and shadow models alike.
     #[inline]
     pub fn color_at(&self, hit: &Hit) -> Vec3 {
-        let object = &self.geometry.objects[hit.object as usize];
-        crate::surface_color(&self.materials[object.material as usize], &object.shape, hit.local, hit.uv, self.textures)
+        self.surface_color(hit.object, hit.local, hit.uv)
     }
 
     /// The material of the object hit in `lane` (which must have a hit).
@@ -57,11 +56,7 @@ impl ShadeContext<'_> {
     #[inline]
     pub fn surface_color(&self, object: u32, local: Vec3, uv: glam::Vec2) -> Vec3 {
         let object = &self.geometry.objects[object as usize];
-        let material = &self.materials[object.material as usize];
-        match material.pattern {
-            lancer_core::Pattern::Solid => material.color,
-            _ => crate::surface_color(material, &object.shape, local, uv, self.textures),
-        }
+        crate::surface_color(&self.materials[object.material as usize], &object.shape, local, uv, self.textures)
     }
 
     /// The hit of `lane` (which must have one) as the geometry describes hits: what

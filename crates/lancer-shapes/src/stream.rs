@@ -102,9 +102,9 @@ struct Block {
 
 const NONE: u32 = u32::MAX;
 
-/// A box's widening per unit of the larger of its own and a ray origin's largest coordinate:
-/// well above the relative rounding of the slab test (a few f32 epsilons), so a ray the
-/// object's own test finds crossing it is never dropped at an edge or a face.
+/// A box's widening per unit of its own largest coordinate, plus as much per unit of the ray
+/// origin's: well above the relative rounding of the slab test (a few f32 epsilons), so a ray
+/// the object's own test finds crossing it is never dropped at an edge or a face.
 const PAD: f32 = 1e-5;
 
 /// Every bit set: a lane's mask of "true".
@@ -389,9 +389,10 @@ impl Cone {
             spread2 = spread2.max(dot(v, v));
             let w = [d[0][g], d[1][g], d[2][g]];
             // sin² of the angle between `w` and the axis, and its cosine times |w|, without a
-            // root; a zero, infinite or NaN direction makes `len2` unsound.
+            // root; a zero, infinite or NaN direction makes `len2` unsound, and so does one so
+            // short that its cross product with the axis loses its digits.
             let len2 = dot(w, w);
-            sound &= len2.cmp_gt(f32x4::ZERO) & len2.cmp_lt(f32x4::splat(f32::INFINITY));
+            sound &= len2.cmp_ge(f32x4::splat(1e-30)) & len2.cmp_lt(f32x4::splat(f32::INFINITY));
             let x = [w[1] * a[2] - w[2] * a[1], w[2] * a[0] - w[0] * a[2], w[0] * a[1] - w[1] * a[0]];
             sin2 = sin2.max(dot(x, x) / len2);
             cos = cos.min(dot(w, a));
@@ -538,8 +539,14 @@ mod tests {
                 };
                 origin.push(o);
                 dir.push(d);
-                skip.push(if k % 7 == 0 { (k % g.objects.len()) as u32 } else { NO_SKIP });
+                // Four rays in a row that ignore the same object (as a group of secondary rays
+                // leaving it does), now and then.
+                skip.push(if k / 4 % 5 == 0 { (k / 4 % g.objects.len()) as u32 } else { NO_SKIP });
                 limit.push(if k % 5 == 0 { f(0.0, 20.0) * size } else { f32::INFINITY });
+            }
+            // Now and then a block with a zero, a NaN and a very short direction among the others.
+            if case % 5 == 4 {
+                (dir[17], dir[33], dir[49]) = (Vec3::ZERO, Vec3::NAN, dir[49] * 1e-18);
             }
             let mut each = vec![None; origin.len()];
             g.closest_each(&origin, &skip, &dir, |l| limit[l], |l, i, c| each[l] = Some((i, *c)));
@@ -566,13 +573,15 @@ mod tests {
         let mut f = crate::testing::uniform(0x2545_F491_4F6C_DD1D);
         let (mut met, mut culled) = (0, 0);
         for case in 0..2_000 {
-            let spread = [0.0, 1e-3, 0.5, 3.0][case % 4];
-            // Blocks near the origin and 10⁵ units away; blocks of one ray too.
-            let far_away = if case % 8 == 7 { 2_000.0 } else { 1.0 };
+            // Each choice drawn on its own: spreads, widths, blocks near the origin and 10⁵ units
+            // away, blocks of one ray.
+            let pick = |f: &mut dyn FnMut(f32, f32) -> f32, n: usize| (f(0.0, n as f32) as usize).min(n - 1);
+            let spread = [0.0, 1e-3, 0.5, 3.0][pick(&mut f, 4)];
+            let far_away = if pick(&mut f, 4) == 0 { 2_000.0 } else { 1.0 };
             let base = Vec3::new(f(-50.0, 50.0), f(-50.0, 50.0), f(-50.0, 50.0)) * far_away;
-            let lanes = if case % 16 == 5 { 1 } else { BLOCK };
+            let lanes = if pick(&mut f, 8) == 0 { 1 } else { BLOCK };
             let towards = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0));
-            let width = [1e-4, 1e-2, 0.3, 1.5][case / 4 % 4];
+            let width = [1e-4, 1e-2, 0.3, 1.5][pick(&mut f, 4)];
             let origin: Vec<Vec3> =
                 (0..lanes).map(|_| base + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * spread).collect();
             let dir: Vec<Vec3> =
