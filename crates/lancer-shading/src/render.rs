@@ -6,7 +6,7 @@ use glam::Vec3;
 use lancer_core::frame::BACKGROUND;
 use lancer_core::rays::{CHUNK_LANES, CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
 use lancer_core::{Camera, Frame, ImageSettings, Layer, RenderStats, Scene};
-use lancer_shapes::NO_SKIP;
+use lancer_shapes::{Hit, NO_SKIP};
 use rayon::prelude::*;
 
 use crate::{Chunk, Pipeline, PrepareError, Prepared, ShadeContext, ShadowContext, TermOutput, prepare};
@@ -447,27 +447,54 @@ fn visibility_system(
     lit: &[bool],
 ) {
     let shadows = &pipeline.shadows.model;
+    let none = Hit {
+        t: 0.0,
+        object: 0,
+        point: Vec3::ZERO,
+        local: Vec3::ZERO,
+        normal: Vec3::Y,
+        shading: Vec3::Y,
+        uv: glam::Vec2::ZERO,
+        error: 0.0,
+        front: true,
+    };
+    let (mut facing, mut slots) = ([none; BLOCK], [0usize; BLOCK]);
+    let mut out = [Vec3::ZERO; BLOCK];
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
-        for lane in 0..hits.object.len() {
-            if hits.object[lane] == NO_HIT || !lit[hits.material[lane] as usize] {
-                continue;
-            }
-            let hit = ctx.hit(hits, lane);
-            let n = hits.facing_normal(lane);
+        let n = hits.object.len();
+        // Block by block and light by light, so a shadow model may trace a block's shadow rays
+        // towards one light together.
+        for start in (0..n).step_by(BLOCK) {
+            let lanes = start..(start + BLOCK).min(n);
             for (k, light) in ctx.lights.iter().enumerate() {
-                let slot = lane * ctx.lights.len() + k;
-                let Some(w) = (light.at - hit.point).try_normalize() else {
-                    continue;
-                };
-                samples.w[slot] = w;
-                if n.dot(w) <= 0.0 {
-                    continue;
+                // The hits the light reaches the front of, and where their samples go.
+                let mut reached = 0;
+                for lane in lanes.clone() {
+                    if hits.object[lane] == NO_HIT || !lit[hits.material[lane] as usize] {
+                        continue;
+                    }
+                    let slot = lane * ctx.lights.len() + k;
+                    let Some(w) = (light.at - hits.point[lane]).try_normalize() else {
+                        continue;
+                    };
+                    samples.w[slot] = w;
+                    if hits.facing_normal(lane).dot(w) <= 0.0 {
+                        continue;
+                    }
+                    (facing[reached], slots[reached]) = (ctx.hit(hits, lane), slot);
+                    reached += 1;
                 }
-                samples.incoming[slot] = light.radiance() * shadows.transmittance(shadow_ctx, &hit, light);
+                shadows.transmittance_each(shadow_ctx, &facing[..reached], light, &mut out[..reached]);
+                for (slot, through) in slots[..reached].iter().zip(&out[..reached]) {
+                    samples.incoming[*slot] = light.radiance() * *through;
+                }
             }
         }
     }
 }
+
+/// Hits whose shadow rays the visibility system hands to the shadow model together.
+const BLOCK: usize = 64;
 
 /// Rays that hit nothing see the background: a camera ray's goes to the background layer, a
 /// child ray's to the term that spawned its line.

@@ -46,6 +46,22 @@ impl<'a> ShadowContext<'a> {
         self.geometry.any_hit(self.geometry.spawn(at, dir), dir, dist)
     }
 
+    /// The first object on each segment from `origin[i]` (ignoring `skip[i]`) along the unit
+    /// `dir[i]` within `0 < t < left(i)`: [`ShadowContext::occluder`] for many shadow rays at
+    /// once (each ray gets the answer it would get alone), `found(i, object, crossing)` for each
+    /// one that meets something, counted in [`ShadowContext::rays`].
+    pub fn occluders(
+        &self,
+        origin: &[Vec3],
+        skip: &[u32],
+        dir: &[Vec3],
+        left: impl Fn(usize) -> f32,
+        found: impl FnMut(usize, u32, &lancer_shapes::ShapeHit),
+    ) {
+        self.rays.set(self.rays.get() + origin.len() as u64);
+        self.geometry.closest_each(origin, skip, dir, left, found);
+    }
+
     /// How many shadow rays were traced through this context.
     pub fn rays(&self) -> u64 {
         self.rays.get()
@@ -66,4 +82,14 @@ pub trait ShadowModel: Send + Sync {
     /// Transmittance of `light` to the surface point of `at`, per RGB channel. Shadow rays start
     /// where [`lancer_shapes::Geometry::spawn`] says (the helpers on [`ShadowContext`] do it).
     fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3;
+
+    /// [`ShadowModel::transmittance`] of `light` to each of `hits`, into `out` (as long): the
+    /// visibility system asks for a block of hits at a time. The default asks for each hit in
+    /// turn; a model may trace the rays together (with [`ShadowContext::occluders`]) as long as
+    /// each hit gets what `transmittance` gives it.
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, hits: &[Hit], light: &Light, out: &mut [Vec3]) {
+        for (at, out) in hits.iter().zip(out) {
+            *out = self.transmittance(ctx, at, light);
+        }
+    }
 }

@@ -22,7 +22,7 @@ use glam::Vec3;
 use lancer_core::Light;
 use lancer_shapes::Hit;
 
-use super::transmissive::{TINT, through_occluders};
+use super::transmissive::{TINT, through_occluders, through_occluders_each};
 use crate::{ParamError, ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 
 /// The spec registered under `soft`.
@@ -96,6 +96,15 @@ impl ShadowModel for Soft {
             }
         }
         sum / n as f32
+    }
+
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, hits: &[Hit], light: &Light, out: &mut [Vec3]) {
+        if light.size <= 0.0 {
+            return through_occluders_each(ctx, hits, light.at, self.tint, out);
+        }
+        for (at, out) in hits.iter().zip(out) {
+            *out = self.transmittance(ctx, at, light);
+        }
     }
 }
 

@@ -43,6 +43,10 @@ impl ShadowModel for Transmissive {
             None => Vec3::ONE,
         }
     }
+
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, hits: &[Hit], light: &Light, out: &mut [Vec3]) {
+        through_occluders_each(ctx, hits, light.at, self.tint, out);
+    }
 }
 
 /// The light left after crossing every object between the surface at `at` and the point at
@@ -52,6 +56,63 @@ impl ShadowModel for Transmissive {
 /// same exit query as the refraction path); a surface with no inside (a disk, an open mesh)
 /// counts at each crossing, and the ray goes on beyond it.
 pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32, tint: bool) -> Vec3 {
+    onward(ctx, at, dir, dist, tint, None)
+}
+
+/// Hits whose first shadow-ray stretches are traced together.
+const BLOCK: usize = 64;
+
+/// [`through_occluders`] from each of `hits` to `target`, into `out`: the first stretch of every
+/// shadow ray traced together ([`ShadowContext::occluders`]), the rest (past transparent
+/// objects) one by one. Each hit gets what `through_occluders` gives it alone.
+pub fn through_occluders_each(ctx: &ShadowContext<'_>, hits: &[Hit], target: Vec3, tint: bool, out: &mut [Vec3]) {
+    for (hits, out) in hits.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
+        let (mut origin, mut skip, mut dir) = ([Vec3::ZERO; BLOCK], [0u32; BLOCK], [Vec3::ZERO; BLOCK]);
+        let (mut left, mut dist, mut which) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0usize; BLOCK]);
+        let mut rays = 0;
+        for (i, (at, out)) in hits.iter().zip(out.iter_mut()).enumerate() {
+            *out = Vec3::ONE;
+            let Some((d, far)) = ctx.toward(at, target) else { continue };
+            // The first stretch exactly as `onward` starts it.
+            let from = ctx.geometry.spawn(at, d);
+            let l = far - (from.point - at.point).dot(d);
+            if l <= 0.0 {
+                continue;
+            }
+            (origin[rays], skip[rays], dir[rays]) = (from.point, from.skip, d);
+            (left[rays], dist[rays], which[rays]) = (l, far, i);
+            rays += 1;
+        }
+        let mut first = [None; BLOCK];
+        ctx.occluders(
+            &origin[..rays],
+            &skip[..rays],
+            &dir[..rays],
+            |r| left[r],
+            |r, object, c| first[r] = Some((object, *c)),
+        );
+        for r in 0..rays {
+            // What `onward` gives for a first stretch that meets nothing (all of the light) or an
+            // opaque object (none), without starting its walk.
+            out[which[r]] = match first[r] {
+                None => Vec3::ONE,
+                Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
+                crossing => onward(ctx, &hits[which[r]], dir[r], dist[r], tint, Some(crossing)),
+            };
+        }
+    }
+}
+
+/// The walk of [`through_occluders`]; `given`: the answer to its first shadow ray when it was
+/// already traced.
+fn onward(
+    ctx: &ShadowContext<'_>,
+    at: &Hit,
+    dir: Vec3,
+    dist: f32,
+    tint: bool,
+    mut given: Option<Option<(u32, lancer_shapes::ShapeHit)>>,
+) -> Vec3 {
     let mut light = Vec3::ONE;
     let mut surface = *at;
     for _ in 0..MAX_CROSSINGS {
@@ -60,7 +121,11 @@ pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32
         if left <= 0.0 {
             return light;
         }
-        let Some((object, crossing)) = ctx.occluder(from, dir, left) else {
+        let first = match given.take() {
+            Some(first) => first,
+            None => ctx.occluder(from, dir, left),
+        };
+        let Some((object, crossing)) = first else {
             return light;
         };
         let m = ctx.material_of(object);
@@ -121,6 +186,69 @@ mod tests {
 
     fn transmittance(model: &str, tint: bool, objects: Vec<Object>, dist: f32) -> Vec3 {
         reaching(model, tint, objects, Vec3::ZERO, Vec3::new(0.0, 0.0, dist), &[])
+    }
+
+    #[test]
+    fn a_block_of_hits_gets_what_each_hit_gets_alone() {
+        // Glass and opaque spheres, a glass cube, a glass disk and an opaque floor; hits all over
+        // them, towards lights above, beside and inside the glass: the block's first stretches
+        // traced together give every hit the same light, to the bit, and the same ray count.
+        let glass = Material { color: Vec3::new(1.0, 0.5, 0.25), alpha: 0.5, ..Material::default() };
+        let materials = [glass, Material::default()];
+        let place = |shape: Shape, scale: f32, at: Vec3, material: u32| {
+            Object::new(
+                shape,
+                Affine3A::from_scale_rotation_translation(Vec3::splat(scale), glam::Quat::from_rotation_y(0.4), at),
+                material,
+            )
+            .unwrap()
+        };
+        let objects = vec![
+            place(Shape::Plane, 1.0, Vec3::ZERO, 1),
+            place(Shape::Sphere, 1.0, Vec3::new(0.0, 1.0, 0.0), 0),
+            place(Shape::Sphere, 0.5, Vec3::new(2.0, 0.5, 1.0), 1),
+            place(Shape::Cube, 0.6, Vec3::new(-2.0, 0.6, -1.0), 0),
+            place(Shape::Disk, 0.8, Vec3::new(1.0, 2.5, -1.0), 0),
+            place(Shape::Sphere, 0.3, Vec3::new(-1.0, 0.3, 2.0), 1),
+        ];
+        let g = Geometry::new(objects);
+        let scene = ShadeContext { geometry: &g, materials: &materials, lights: &[], max_depth: 5, textures: &[] };
+        let mut f = {
+            let mut state = 0x2545_F491_4F6C_DD1Du64;
+            move |lo: f32, hi: f32| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
+            }
+        };
+        let hits: Vec<_> = (0..300)
+            .filter_map(|_| {
+                let eye = Vec3::new(f(-6.0, 6.0), f(3.0, 8.0), f(-6.0, 6.0));
+                let aim = Vec3::new(f(-3.0, 3.0), f(0.0, 2.0), f(-3.0, 3.0));
+                g.closest_hit(Origin::free(eye), (aim - eye).normalize(), 0.0, f32::INFINITY)
+            })
+            .collect();
+        assert!(hits.len() > 250);
+        let mut shadowed = [0, 0, 0];
+        for target in [Vec3::new(3.0, 8.0, -2.0), Vec3::new(-6.0, 1.0, 0.5), Vec3::new(0.0, 1.2, 0.1)] {
+            for tint in [false, true] {
+                let (each_ctx, alone_ctx) = (ShadowContext::new(&scene), ShadowContext::new(&scene));
+                let mut each = vec![Vec3::splat(7.0); hits.len()];
+                super::through_occluders_each(&each_ctx, &hits, target, tint, &mut each);
+                for (at, got) in hits.iter().zip(&each) {
+                    let alone = match alone_ctx.toward(at, target) {
+                        Some((dir, dist)) => super::through_occluders(&alone_ctx, at, dir, dist, tint),
+                        None => Vec3::ONE,
+                    };
+                    assert_eq!(got.to_array().map(f32::to_bits), alone.to_array().map(f32::to_bits), "{at:?}");
+                    shadowed[usize::from(alone != Vec3::ONE) + usize::from(alone == Vec3::ZERO)] += 1;
+                }
+                assert_eq!(each_ctx.rays(), alone_ctx.rays());
+            }
+        }
+        // Lit, dimmed by glass and blocked hits, all of them.
+        assert!(shadowed.iter().all(|&n| n > 50), "{shadowed:?}");
     }
 
     #[test]
