@@ -62,6 +62,21 @@ impl<'a> ShadowContext<'a> {
         self.geometry.closest_each(origin, skip, dir, left, found);
     }
 
+    /// [`ShadowContext::blocked`] for many shadow rays at once: `blocked(i)` for each segment
+    /// from `origin[i]` (ignoring `skip[i]`) along the unit `dir[i]` within `0 < t < dist(i)`
+    /// that meets an object, counted in [`ShadowContext::rays`].
+    pub fn blocked_each(
+        &self,
+        origin: &[Vec3],
+        skip: &[u32],
+        dir: &[Vec3],
+        dist: impl Fn(usize) -> f32,
+        blocked: impl FnMut(usize),
+    ) {
+        self.rays.set(self.rays.get() + origin.len() as u64);
+        self.geometry.any_each(origin, skip, dir, dist, blocked);
+    }
+
     /// How many shadow rays were traced through this context.
     pub fn rays(&self) -> u64 {
         self.rays.get()

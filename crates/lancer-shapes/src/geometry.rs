@@ -431,6 +431,31 @@ impl Geometry {
         }
     }
 
+    /// [`Geometry::any_hit`] for many rays at once: `blocked(lane)` for each ray `lane` of
+    /// `origin`, `skip` and `dir` that meets an object within `0 < t < tmax(lane)`, in lane
+    /// order. A small scene finds them object by object over blocks of rays (a ray meets an
+    /// object exactly where it has a closest crossing); a larger one asks the BVH per ray.
+    pub fn any_each(
+        &self,
+        origin: &[Vec3],
+        skip: &[u32],
+        dir: &[Vec3],
+        tmax: impl Fn(usize) -> f32,
+        mut blocked: impl FnMut(usize),
+    ) {
+        if self.stream.is_empty() {
+            for lane in 0..origin.len() {
+                if self.any_hit(Origin { point: origin[lane], skip: skip[lane] }, dir[lane], tmax(lane)) {
+                    blocked(lane);
+                }
+            }
+        } else {
+            crate::stream::closest_each(&self.objects, &self.stream, origin, skip, dir, tmax, |lane, _, _| {
+                blocked(lane)
+            });
+        }
+    }
+
     /// Whether any object (but `from.skip`) lies on the ray within `0 < t < tmax`: a shadow ray
     /// that may stop at the first occluder it finds.
     pub fn any_hit(&self, from: Origin, d: Vec3, tmax: f32) -> bool {

@@ -30,4 +30,24 @@ impl ShadowModel for Hard {
         let Some((dir, dist)) = ctx.toward(at, light.at) else { return Vec3::ONE };
         if ctx.blocked(at, dir, dist) { Vec3::ZERO } else { Vec3::ONE }
     }
+
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, hits: &[Hit], light: &Light, out: &mut [Vec3]) {
+        for (hits, out) in hits.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
+            let (mut origin, mut skip, mut dir) = ([Vec3::ZERO; BLOCK], [0u32; BLOCK], [Vec3::ZERO; BLOCK]);
+            let (mut dist, mut which) = ([0.0f32; BLOCK], [0usize; BLOCK]);
+            let mut rays = 0;
+            for (i, (at, out)) in hits.iter().zip(out.iter_mut()).enumerate() {
+                *out = Vec3::ONE;
+                // The shadow ray `blocked` traces.
+                let Some((d, far)) = ctx.toward(at, light.at) else { continue };
+                let from = ctx.geometry.spawn(at, d);
+                (origin[rays], skip[rays], dir[rays], dist[rays], which[rays]) = (from.point, from.skip, d, far, i);
+                rays += 1;
+            }
+            ctx.blocked_each(&origin[..rays], &skip[..rays], &dir[..rays], |r| dist[r], |r| out[which[r]] = Vec3::ZERO);
+        }
+    }
 }
+
+/// Hits whose shadow rays are traced together.
+const BLOCK: usize = 64;
