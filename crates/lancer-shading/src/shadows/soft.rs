@@ -22,7 +22,7 @@ use glam::Vec3;
 use lancer_core::Light;
 use lancer_shapes::Hit;
 
-use super::transmissive::{TINT, through_occluders, through_occluders_each};
+use super::transmissive::{TINT, through_each, through_occluders, through_occluders_each};
 use crate::{ParamError, ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 
 /// The spec registered under `soft`.
@@ -78,6 +78,12 @@ impl Soft {
     }
 }
 
+/// The sample sequence's seed for a hit at `p`: the same points for the same hit, whatever else
+/// is rendered.
+fn seed(p: Vec3) -> u64 {
+    mix(((p.x.to_bits() as u64) << 32 | p.y.to_bits() as u64) ^ mix(p.z.to_bits() as u64))
+}
+
 impl ShadowModel for Soft {
     fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3 {
         if light.size <= 0.0 {
@@ -86,8 +92,7 @@ impl ShadowModel for Soft {
                 None => Vec3::ONE,
             };
         }
-        let p = at.point;
-        let seed = mix(((p.x.to_bits() as u64) << 32 | p.y.to_bits() as u64) ^ mix(p.z.to_bits() as u64));
+        let seed = seed(at.point);
         let n = self.side * self.side;
         let mut sum = Vec3::ZERO;
         for cell in 0..n {
@@ -102,8 +107,25 @@ impl ShadowModel for Soft {
         if light.size <= 0.0 {
             return through_occluders_each(ctx, hits, light.at, self.tint, out);
         }
-        for (at, out) in hits.iter().zip(out) {
-            *out = self.transmittance(ctx, at, light);
+        // Sample by sample, the block's rays together; each hit's sum in the order
+        // `transmittance` makes it (sample 0 first).
+        let n = self.side * self.side;
+        out.fill(Vec3::ZERO);
+        for cell in 0..n {
+            through_each(
+                ctx,
+                hits,
+                |i| self.sample(light, seed(hits[i].point), cell),
+                self.tint,
+                |i, through| {
+                    if let Some(through) = through {
+                        out[i] += through;
+                    }
+                },
+            );
+        }
+        for sum in out.iter_mut() {
+            *sum /= n as f32;
         }
     }
 }

@@ -66,21 +66,36 @@ const BLOCK: usize = 64;
 /// shadow ray traced together ([`ShadowContext::occluders`]), the rest (past transparent
 /// objects) one by one. Each hit gets what `through_occluders` gives it alone.
 pub fn through_occluders_each(ctx: &ShadowContext<'_>, hits: &[Hit], target: Vec3, tint: bool, out: &mut [Vec3]) {
-    for (hits, out) in hits.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
+    through_each(ctx, hits, |_| target, tint, |i, light| out[i] = light.unwrap_or(Vec3::ONE));
+}
+
+/// [`through_occluders`] from each hit `i` of `hits` to its own `target(i)`, traced as
+/// [`through_occluders_each`] does: `done(i, light)` for each hit, in order, with `None` where
+/// the target is the hit point itself (no ray).
+pub(crate) fn through_each(
+    ctx: &ShadowContext<'_>,
+    hits: &[Hit],
+    target: impl Fn(usize) -> Vec3,
+    tint: bool,
+    mut done: impl FnMut(usize, Option<Vec3>),
+) {
+    for (start, hits) in (0..).step_by(BLOCK).zip(hits.chunks(BLOCK)) {
         let (mut origin, mut skip, mut dir) = ([Vec3::ZERO; BLOCK], [0u32; BLOCK], [Vec3::ZERO; BLOCK]);
-        let (mut left, mut dist, mut which) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0usize; BLOCK]);
+        let (mut left, mut dist) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
+        // Each hit's ray (an index into the columns above), or what it gets without one.
+        let mut ray = [Err(None); BLOCK];
         let mut rays = 0;
-        for (i, (at, out)) in hits.iter().zip(out.iter_mut()).enumerate() {
-            *out = Vec3::ONE;
-            let Some((d, far)) = ctx.toward(at, target) else { continue };
+        for (i, at) in hits.iter().enumerate() {
+            let Some((d, far)) = ctx.toward(at, target(start + i)) else { continue };
             // The first stretch exactly as `onward` starts it.
             let from = ctx.geometry.spawn(at, d);
             let l = far - (from.point - at.point).dot(d);
             if l <= 0.0 {
+                ray[i] = Err(Some(Vec3::ONE));
                 continue;
             }
-            (origin[rays], skip[rays], dir[rays]) = (from.point, from.skip, d);
-            (left[rays], dist[rays], which[rays]) = (l, far, i);
+            (origin[rays], skip[rays], dir[rays], left[rays], dist[rays]) = (from.point, from.skip, d, l, far);
+            ray[i] = Ok(rays);
             rays += 1;
         }
         let mut first = [None; BLOCK];
@@ -91,14 +106,18 @@ pub fn through_occluders_each(ctx: &ShadowContext<'_>, hits: &[Hit], target: Vec
             |r| left[r],
             |r, object, c| first[r] = Some((object, *c)),
         );
-        for r in 0..rays {
+        for (i, at) in hits.iter().enumerate() {
             // What `onward` gives for a first stretch that meets nothing (all of the light) or an
             // opaque object (none), without starting its walk.
-            out[which[r]] = match first[r] {
-                None => Vec3::ONE,
-                Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
-                crossing => onward(ctx, &hits[which[r]], dir[r], dist[r], tint, Some(crossing)),
+            let light = match ray[i] {
+                Err(light) => light,
+                Ok(r) => Some(match first[r] {
+                    None => Vec3::ONE,
+                    Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
+                    crossing => onward(ctx, at, dir[r], dist[r], tint, Some(crossing)),
+                }),
             };
+            done(start + i, light);
         }
     }
 }
