@@ -13,9 +13,39 @@ pub fn srgb_encode(linear: f32) -> f32 {
     if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
 }
 
-/// 8-bit sRGB pixels of a linear image, row-major RGB.
+/// One linear channel as an 8-bit sRGB value: the encoded value rounded to the nearest step.
+#[inline]
+fn srgb8_of(linear: f32) -> u8 {
+    (srgb_encode(linear) * 255.0 + 0.5) as u8
+}
+
+/// For each 8-bit value `k` from 1 to 255, the smallest linear value in [0, 1] that
+/// [`srgb8_of`] takes to `k` or more: the byte of a channel is the number of thresholds at or
+/// below it. [`srgb8_of`] never decreases as its input grows, so a search over the bits of the
+/// non-negative floats (ordered as their values) finds each threshold exactly.
+fn srgb8_thresholds() -> &'static [f32; 255] {
+    static TABLE: std::sync::OnceLock<[f32; 255]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let k = k as u8 + 1;
+            let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+            // Invariant: srgb8_of(lo) < k <= srgb8_of(hi).
+            while hi - lo > 1 {
+                let mid = lo + (hi - lo) / 2;
+                if srgb8_of(f32::from_bits(mid)) >= k { hi = mid } else { lo = mid }
+            }
+            f32::from_bits(hi)
+        })
+    })
+}
+
+/// 8-bit sRGB pixels of a linear image, row-major RGB: [`srgb8_of`] for every channel, by a
+/// search of its 255 thresholds instead of a power per channel (the same bytes).
 pub fn to_srgb8(pixels: &[Vec3]) -> Vec<u8> {
-    pixels.iter().flat_map(|p| p.to_array()).map(|c| (srgb_encode(c) * 255.0 + 0.5) as u8).collect()
+    let thresholds = srgb8_thresholds();
+    // NaN counts as 0 (as `srgb_encode` takes it), which no threshold is at or below.
+    let byte = |c: f32| thresholds.partition_point(|&t| t <= c) as u8;
+    pixels.iter().flat_map(|p| p.to_array()).map(byte).collect()
 }
 
 /// A PNG file's bytes: the linear image sRGB-encoded to 8 bits per channel.
@@ -161,6 +191,25 @@ mod tests {
         assert_eq!(srgb_encode(f32::NAN), 0.0);
         assert_eq!(srgb_encode(7.0), srgb_encode(1.0));
         assert_eq!(to_srgb8(&[Vec3::new(0.0, 1.0, 2.0)]), [0, 255, 255]);
+    }
+
+    #[test]
+    fn the_threshold_search_gives_the_bytes_of_the_curve() {
+        // Every float near a threshold (where a mistake would show), a sweep through all the
+        // floats in [0, 1] and beyond, and the special values: the same byte as encoding it.
+        let mut values: Vec<f32> = vec![0.0, -0.0, 1.0, -1.0, 2.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e-45];
+        for &t in srgb8_thresholds() {
+            let bits = t.to_bits();
+            values.extend((bits.saturating_sub(64)..bits + 64).map(f32::from_bits));
+        }
+        values.extend((0..=1.5f32.to_bits()).step_by(997).map(f32::from_bits));
+        let bytes = to_srgb8(&values.iter().map(|&v| Vec3::splat(v)).collect::<Vec<_>>());
+        for (v, got) in values.iter().zip(bytes.chunks(3)) {
+            assert_eq!(got, [srgb8_of(*v); 3], "{v} ({:#x})", v.to_bits());
+        }
+        // Every byte is reached.
+        let reached: std::collections::BTreeSet<u8> = bytes.iter().copied().collect();
+        assert_eq!(reached.len(), 256);
     }
 
     #[test]
