@@ -131,11 +131,6 @@ impl Hits {
     /// rewritten in full ([`NO_HIT`]); the other columns keep whatever their lanes held, as a
     /// lane's values mean something only once the trace system has written its hit.
     pub fn reset(&mut self, n: usize) {
-        if cfg!(debug_assertions) {
-            // Debug builds (the test suite) fill every lane with values no hit has, so a reader
-            // of a lane without a hit shows up as a change between thread counts or chunk sizes.
-            self.poison();
-        }
         self.t.resize(n, f32::INFINITY);
         self.point.resize(n, Vec3::ZERO);
         self.local.resize(n, Vec3::ZERO);
@@ -146,6 +141,11 @@ impl Hits {
         self.front.resize(n, true);
         self.material.resize(n, 0);
         self.color.resize(n, Vec3::ZERO);
+        if cfg!(debug_assertions) {
+            // Debug builds (the test suite) fill every lane with values no hit has, so a reader
+            // of a lane without a hit shows up as a change between thread counts or chunk sizes.
+            self.poison();
+        }
         self.object.clear();
         self.object.resize(n, NO_HIT);
     }

@@ -9,6 +9,7 @@ use lancer_core::{Camera, Frame, ImageSettings, Layer, RenderStats, Scene};
 use lancer_shapes::{Hit, NO_SKIP};
 use rayon::prelude::*;
 
+use crate::shadow::BLOCK;
 use crate::{Chunk, Pipeline, PrepareError, Prepared, ShadeContext, ShadowContext, TermOutput, prepare};
 
 /// Side of a square tile, in pixels: a tile's rays stay in cache across generations.
@@ -447,18 +448,7 @@ fn visibility_system(
     lit: &[bool],
 ) {
     let shadows = &pipeline.shadows.model;
-    let none = Hit {
-        t: 0.0,
-        object: 0,
-        point: Vec3::ZERO,
-        local: Vec3::ZERO,
-        normal: Vec3::Y,
-        shading: Vec3::Y,
-        uv: glam::Vec2::ZERO,
-        error: 0.0,
-        front: true,
-    };
-    let (mut facing, mut slots) = ([none; BLOCK], [0usize; BLOCK]);
+    let (mut facing, mut slots) = ([Hit::default(); BLOCK], [0usize; BLOCK]);
     let mut out = [Vec3::ZERO; BLOCK];
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         let n = hits.object.len();
@@ -492,9 +482,6 @@ fn visibility_system(
         }
     }
 }
-
-/// Hits whose shadow rays the visibility system hands to the shadow model together.
-const BLOCK: usize = 64;
 
 /// Rays that hit nothing see the background: a camera ray's goes to the background layer, a
 /// child ray's to the term that spawned its line.

@@ -92,6 +92,10 @@ impl<'a> ShadowContext<'a> {
     }
 }
 
+/// The most hits the visibility system hands a shadow model at once
+/// ([`ShadowModel::transmittance_each`]), and the block the built-in models trace together.
+pub(crate) const BLOCK: usize = 64;
+
 /// A shadow model: the fraction (per RGB channel) of a light's colour that reaches a point.
 pub trait ShadowModel: Send + Sync {
     /// Transmittance of `light` to the surface point of `at`, per RGB channel. Shadow rays start

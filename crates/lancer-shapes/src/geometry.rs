@@ -102,16 +102,13 @@ impl Object {
         Some(Object { shape, world_from_object, object_from_world, world_from_object_normal, material, fast, identity })
     }
 
-    /// How [`crate::stream`] tests the object against four rays at once.
-    pub(crate) fn stream_test(&self) -> crate::stream::Test {
-        use crate::stream::Test;
+    /// The world-space test [`crate::stream`] runs on four rays at once, for a shape placed so
+    /// that it has one (a sphere scaled the same on every axis, a plane); `None` otherwise.
+    pub(crate) fn world_test(&self) -> Option<crate::stream::Test> {
         match self.fast {
-            Fast::Sphere { centre, radius2 } => Test::Sphere { centre, radius2 },
-            Fast::Plane { normal, offset } => Test::Plane { normal, offset },
-            Fast::None => match self.bounds() {
-                Some(b) => Test::Boxed { min: b.min, max: b.max },
-                None => Test::Boxed { min: Vec3::NEG_INFINITY, max: Vec3::INFINITY },
-            },
+            Fast::Sphere { centre, radius2 } => Some(crate::stream::Test::Sphere { centre, radius2 }),
+            Fast::Plane { normal, offset } => Some(crate::stream::Test::Plane { normal, offset }),
+            Fast::None => None,
         }
     }
 
@@ -250,7 +247,7 @@ impl Object {
 }
 
 /// A ray–surface hit in world space: everything the shading needs, found once per ray.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Hit {
     /// Distance along the ray (in units of the ray's direction length).
     pub t: f32,
@@ -319,12 +316,13 @@ const OFFSET_FLOOR: f32 = 1e-30;
 impl Geometry {
     /// Builds the BVH over the bounded objects.
     pub fn new(objects: Vec<Object>) -> Geometry {
+        let boxes: Vec<Option<Aabb>> = objects.iter().map(Object::bounds).collect();
         let mut bounds = Vec::new();
         let (mut bounded, mut unbounded) = (Vec::new(), Vec::new());
-        for (i, o) in objects.iter().enumerate() {
-            match o.bounds() {
+        for (i, b) in boxes.iter().enumerate() {
+            match b {
                 Some(b) => {
-                    bounds.push(b);
+                    bounds.push(*b);
                     bounded.push(i as u32);
                 }
                 None => unbounded.push(i as u32),
@@ -334,7 +332,7 @@ impl Geometry {
         let stream = if lone_mesh || bounded.len() > crate::stream::MOST_OBJECTS {
             Vec::new()
         } else {
-            crate::stream::plan(&objects)
+            crate::stream::plan(&objects, &boxes)
         };
         Geometry { bvh: Bvh::build(&bounds), objects, bounded, unbounded, lone_mesh, stream }
     }

@@ -11,7 +11,7 @@
 use glam::Vec3;
 use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe, f32x4, i32x4};
 
-use crate::{Object, ShapeHit};
+use crate::{Aabb, Object, ShapeHit};
 
 /// The most bounded objects a scene may have for its rays to be traced object by object; more,
 /// and each ray walks the BVH. Measured on a grid of spheres over a floor (640x360, one
@@ -48,24 +48,24 @@ pub(crate) struct Item {
 /// The objects in the order they are tested: the cheapest first (planes, spheres, then the
 /// others by their shape's cost), so the costly ones are reached with the nearest hit so far
 /// and their box test drops most rays. Ties keep the scene's order.
-pub(crate) fn plan(objects: &[Object]) -> Vec<Item> {
+pub(crate) fn plan(objects: &[Object], boxes: &[Option<Aabb>]) -> Vec<Item> {
     let mut items: Vec<(u32, Item)> = objects
         .iter()
+        .zip(boxes)
         .enumerate()
-        .map(|(i, o)| {
-            let test = match o.stream_test() {
-                Test::Boxed { min, max } => {
-                    let pad = Vec3::splat(min.abs().max(max.abs()).max_element() * PAD);
-                    Test::Boxed { min: min - pad, max: max + pad }
+        .map(|(i, (o, world))| {
+            let (test, rank) = match o.world_test() {
+                Some(test @ Test::Plane { .. }) => (test, 0),
+                Some(test) => (test, 1),
+                // The world box, widened against the slab test's rounding; infinite for an
+                // unbounded object.
+                None => {
+                    let b = world.unwrap_or(Aabb { min: Vec3::NEG_INFINITY, max: Vec3::INFINITY });
+                    let pad = Vec3::splat(b.min.abs().max(b.max.abs()).max_element() * PAD);
+                    (Test::Boxed { min: b.min - pad, max: b.max + pad }, 2 + o.shape.cost_rank())
                 }
-                test => test,
             };
-            let rank = match test {
-                Test::Plane { .. } => 0,
-                Test::Sphere { .. } => 1,
-                Test::Boxed { .. } => 2 + o.shape.cost_rank(),
-            };
-            let bound = o.bounds().map(|b| {
+            let bound = world.map(|b| {
                 let (centre, radius) = ((b.min + b.max) * 0.5, (b.max - b.min).length() * 0.5);
                 (centre, radius * (1.0 + 1e-4) + centre.abs().max_element() * 1e-6)
             });
@@ -524,7 +524,7 @@ mod tests {
                     }
                     1 => {
                         // Along an axis, through a corner region of the object's box.
-                        let b = g.objects[item.map_or(0, |i| i.object) as usize].bounds().unwrap_or_default();
+                        let b = g.objects[item.map_or(0, |i| i.object) as usize].bounds().unwrap_or(crate::Aabb::EMPTY);
                         let axis = k / 2 % 3;
                         let mut o = Vec3::new(f(b.min.x, b.max.x), f(b.min.y, b.max.y), f(b.min.z, b.max.z));
                         let corner = if k % 4 < 2 { b.min } else { b.max };

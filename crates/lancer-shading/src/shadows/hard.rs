@@ -13,6 +13,7 @@ use glam::Vec3;
 use lancer_core::Light;
 use lancer_shapes::Hit;
 
+use crate::shadow::BLOCK;
 use crate::{Params, ShadowContext, ShadowModel, ShadowSpec};
 
 /// The spec registered under `hard`.
@@ -48,6 +49,3 @@ impl ShadowModel for Hard {
         }
     }
 }
-
-/// Hits whose shadow rays are traced together.
-const BLOCK: usize = 64;

@@ -14,6 +14,7 @@ use glam::Vec3;
 use lancer_core::Light;
 use lancer_shapes::Hit;
 
+use crate::shadow::BLOCK;
 use crate::{ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 
 /// The spec registered under `transmissive`.
@@ -58,9 +59,6 @@ impl ShadowModel for Transmissive {
 pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32, tint: bool) -> Vec3 {
     onward(ctx, at, dir, dist, tint, None)
 }
-
-/// Hits whose first shadow-ray stretches are traced together.
-const BLOCK: usize = 64;
 
 /// [`through_occluders`] from each of `hits` to `target`, into `out`: the first stretch of every
 /// shadow ray traced together ([`ShadowContext::occluders`]), the rest (past transparent
