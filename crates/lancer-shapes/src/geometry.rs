@@ -67,8 +67,9 @@ pub struct Object {
 enum Fast {
     /// Any other shape or placement.
     None,
-    /// A sphere scaled the same on every axis: centre and squared radius.
-    Sphere { centre: Vec3, radius2: f32 },
+    /// A sphere scaled the same on every axis: centre, squared radius, and the radius in f64
+    /// (the root of the squared one, for the hit's refinement).
+    Sphere { centre: Vec3, radius2: f32, radius: f64 },
     /// A plane: unit normal `n` and offset `n · p` of its points.
     Plane { normal: Vec3, offset: f32 },
 }
@@ -90,7 +91,12 @@ impl Object {
                 let orthogonal = [m.x_axis.dot(m.y_axis), m.y_axis.dot(m.z_axis), m.z_axis.dot(m.x_axis)]
                     .iter()
                     .all(|c| c.abs() <= tol * lx * lx);
-                if uniform && orthogonal { Fast::Sphere { centre, radius2: lx * lx } } else { Fast::None }
+                if uniform && orthogonal {
+                    let radius2 = lx * lx;
+                    Fast::Sphere { centre, radius2, radius: (radius2 as f64).sqrt() }
+                } else {
+                    Fast::None
+                }
             }
             Shape::Plane => {
                 let normal = (world_from_object_normal * Vec3::Y).normalize_or(Vec3::Y);
@@ -106,7 +112,7 @@ impl Object {
     /// that it has one (a sphere scaled the same on every axis, a plane); `None` otherwise.
     pub(crate) fn world_test(&self) -> Option<crate::stream::Test> {
         match self.fast {
-            Fast::Sphere { centre, radius2 } => Some(crate::stream::Test::Sphere { centre, radius2 }),
+            Fast::Sphere { centre, radius2, .. } => Some(crate::stream::Test::Sphere { centre, radius2 }),
             Fast::Plane { normal, offset } => Some(crate::stream::Test::Plane { normal, offset }),
             Fast::None => None,
         }
@@ -133,7 +139,7 @@ impl Object {
     pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<ShapeHit> {
         let ok = |t: f32| t > tmin && t < tmax;
         match self.fast {
-            Fast::Sphere { centre, radius2 } => {
+            Fast::Sphere { centre, radius2, .. } => {
                 let (t0, t1) = crate::shape::sphere_roots_world(o - centre, d, radius2)?;
                 let t = if ok(t0) {
                     t0
@@ -189,10 +195,9 @@ impl Object {
             // The same refinements as in object space, done where the fast test works: moved
             // onto the surface in f64, so only the rounding to f32 remains (half an ulp of the
             // point's largest coordinate).
-            Fast::Sphere { centre, radius2 } => {
+            Fast::Sphere { centre, radius, .. } => {
                 let centre = centre.as_dvec3();
                 let u = (p - centre).normalize_or(glam::DVec3::Y);
-                let radius = (radius2 as f64).sqrt();
                 let point = (centre + radius * u).as_vec3();
                 // The object-space point from the offset to the centre, not from the rounded
                 // world point: patterns stay exact on a small sphere far from the origin.

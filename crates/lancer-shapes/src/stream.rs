@@ -122,7 +122,31 @@ pub(crate) fn closest_each(
     tmax: impl Fn(usize) -> f32,
     mut found: impl FnMut(usize, u32, &ShapeHit),
 ) {
-    let mut block = Block::new();
+    SCRATCH.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut block) => trace_blocks(&mut block, objects, items, origin, skip, dir, tmax, &mut found),
+        // Called again from inside `found`: a block of its own.
+        Err(_) => trace_blocks(&mut Block::new(), objects, items, origin, skip, dir, tmax, &mut found),
+    });
+}
+
+thread_local! {
+    /// Each thread's block, reused from call to call: a few kilobytes not cleared for every
+    /// batch of shadow rays (only the lanes a call loads are read).
+    static SCRATCH: std::cell::RefCell<Box<Block>> = std::cell::RefCell::new(Box::new(Block::new()));
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn trace_blocks(
+    block: &mut Block,
+    objects: &[Object],
+    items: &[Item],
+    origin: &[Vec3],
+    skip: &[u32],
+    dir: &[Vec3],
+    tmax: impl Fn(usize) -> f32,
+    found: &mut impl FnMut(usize, u32, &ShapeHit),
+) {
     for start in (0..origin.len()).step_by(BLOCK) {
         let n = (origin.len() - start).min(BLOCK);
         block.load(&origin[start..start + n], &skip[start..start + n], &dir[start..start + n], |l| tmax(start + l));
