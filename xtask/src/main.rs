@@ -5,6 +5,7 @@ mod bench;
 mod compare;
 mod fuzz;
 mod gallery;
+mod portable;
 mod studio;
 
 use std::path::{Path, PathBuf};
@@ -39,6 +40,9 @@ tasks:
   gallery-check [--screenshot FILE]
             open target/gallery/index.html in headless Chromium; fail if any image did not load;
             save a screenshot (default target/gallery/screenshot.png)
+  portable-check [--width W] [FILTER]
+            render every scene (default 160 wide) with the renderer built for this processor and
+            with the portable x86-64 build; fail unless every EXR they write has the same bytes
   renders [--width W] [FILTER]
             every scene's per-term images into target/renders/<scene>/";
 
@@ -67,6 +71,7 @@ fn run(args: Vec<String>) -> Result<()> {
         Some("gallery") => gallery::build(&args[1..]),
         Some("gallery-check") => gallery::check(&args[1..]),
         Some("gallery-merge") => gallery::merge(&args[1..]),
+        Some("portable-check") => portable::run(&args[1..]),
         Some("studio-check") => studio::check(&args[1..]),
         Some("renders") => renders(&args[1..]),
         Some("-h" | "--help") | None => {

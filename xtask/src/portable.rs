@@ -1,0 +1,115 @@
+//! `cargo xtask portable-check`: the renderer built for this processor (the repository's
+//! `.cargo/config.toml`) against the portable x86-64 build: every scene rendered by both, every
+//! file compared byte for byte.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+
+use crate::{TaskArgs, build_renderer, parse_common, root, scenes};
+
+/// The flags of the portable build: the baseline x86-64 instruction set (SSE2), no more.
+const PORTABLE: &str = "-C target-cpu=x86-64";
+
+pub fn run(args: &[String]) -> Result<()> {
+    let TaskArgs { options, filter } = parse_common(args, &["width"])?;
+    let width = match options.iter().find(|(k, _)| k == "width") {
+        Some((_, w)) => w.parse::<u32>().ok().filter(|w| *w > 0).with_context(|| format!("--width {w}: a width"))?,
+        None => 160,
+    };
+    if !cfg!(target_arch = "x86_64") {
+        println!("portable-check: the processor-specific build flags apply to x86-64 only; nothing to compare here");
+        return Ok(());
+    }
+    let native = build_renderer()?;
+    let portable = build_portable()?;
+    let list = scenes(filter.as_deref())?;
+    let out = root().join("target/portable-check");
+    let (mut files, mut differ) = (0, Vec::new());
+    for (i, scene) in list.iter().enumerate() {
+        let rel = scene.strip_prefix(root().join("scenes")).unwrap_or(scene).with_extension("");
+        eprintln!("[{}/{}] {}", i + 1, list.len(), rel.display());
+        let (a, b) = (out.join("native").join(&rel), out.join("portable").join(&rel));
+        render(&native, scene, &a, width)?;
+        render(&portable, scene, &b, width)?;
+        for name in listing(&a)? {
+            files += 1;
+            let (x, y) = (a.join(&name), b.join(&name));
+            let same = std::fs::read(&x)? == std::fs::read(&y).with_context(|| format!("reading {}", y.display()))?;
+            if !same {
+                differ.push(rel.join(&name));
+            }
+        }
+        if listing(&b)? != listing(&a)? {
+            differ.push(rel.join("(the files written)"));
+        }
+    }
+    if !differ.is_empty() {
+        let list: Vec<String> = differ.iter().map(|p| format!("  {}", p.display())).collect();
+        bail!(
+            "the build for this processor and the portable build ({PORTABLE}) wrote different bytes:\n{}\n\
+             (both renders are in {})",
+            list.join("\n"),
+            out.display()
+        );
+    }
+    println!(
+        "portable-check: {} scenes at {width} wide, {files} EXR images (beauty and per term): the same bytes from the \
+         build for this processor as from the portable one ({PORTABLE})",
+        list.len()
+    );
+    Ok(())
+}
+
+/// Builds the renderer with [`PORTABLE`] flags in a target folder of its own.
+fn build_portable() -> Result<PathBuf> {
+    let dir = root().join("target/portable");
+    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .args(["build", "--release", "--package", "lancer-cli"])
+        .env("RUSTFLAGS", PORTABLE)
+        .env("CARGO_TARGET_DIR", &dir)
+        .current_dir(root())
+        .status()
+        .context("running cargo build")?;
+    if !status.success() {
+        bail!("building the portable renderer failed");
+    }
+    Ok(dir.join("release/lancer"))
+}
+
+/// Renders `scene` at `width` with its per-term images, as linear EXR (every bit of every
+/// pixel), into the folder `out`.
+fn render(lancer: &Path, scene: &Path, out: &Path, width: u32) -> Result<()> {
+    if out.exists() {
+        std::fs::remove_dir_all(out).with_context(|| format!("clearing {}", out.display()))?;
+    }
+    let status = Command::new(lancer)
+        .arg("render")
+        .arg(scene)
+        .args(["--width", &width.to_string(), "--quiet", "--aov-format", "exr"])
+        .arg("-o")
+        .arg(out.join("render.exr"))
+        .arg("--aov")
+        .arg(out)
+        .status()
+        .with_context(|| format!("running {}", lancer.display()))?;
+    if !status.success() {
+        bail!("{} failed on {}", lancer.display(), scene.display());
+    }
+    Ok(())
+}
+
+/// The names of the images in `dir`, sorted (the manifest beside them holds timings, which
+/// differ from run to run).
+fn listing(dir: &Path) -> Result<Vec<String>> {
+    let mut names = Vec::new();
+    for entry in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
+        let name = entry?.file_name().to_string_lossy().into_owned();
+        if name.ends_with(".exr") {
+            names.push(name);
+        }
+    }
+    names.sort();
+    Ok(names)
+}
