@@ -79,14 +79,19 @@ fn largest_cubic_root(a: f64, b: f64, c: f64) -> f64 {
         m * (arg.acos() / 3.0).cos()
     };
     let mut x = y + shift;
-    // Polish: the trigonometric and Cardano forms lose digits near multiple roots.
+    // Polish: the trigonometric and Cardano forms lose digits near multiple roots. A step that
+    // leaves `x` as it is would be repeated as it is: the rest of the loop is skipped.
     for _ in 0..3 {
         let f = ((x + a) * x + b) * x + c;
         let df = (3.0 * x + 2.0 * a) * x + b;
         if df == 0.0 {
             break;
         }
-        x -= f / df;
+        let next = x - f / df;
+        if next == x {
+            break;
+        }
+        x = next;
     }
     x
 }

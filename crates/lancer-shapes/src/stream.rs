@@ -182,22 +182,22 @@ impl Block {
         let n = origin.len();
         self.any_flat = false;
         for g in 0..n.div_ceil(4) {
-            for k in 0..4 {
+            // Lanes past the end repeat the first ray, which they never hit anything of. Each
+            // group is built in registers and stored whole (not lane by lane, which would make
+            // every later read of the group wait for four separate stores).
+            let lane = |k: usize| {
                 let lane = g * 4 + k;
-                // Lanes past the end repeat the first ray, which they never hit anything of.
-                let (o, d, t, s) = if lane < n {
-                    (origin[lane], dir[lane], tmax(lane), skip[lane])
-                } else {
-                    (origin[0], dir[0], -1.0, NONE)
-                };
-                for axis in 0..3 {
-                    self.o[axis][g].as_array_mut()[k] = o[axis];
-                    self.d[axis][g].as_array_mut()[k] = d[axis];
-                }
-                self.tmax[g].as_array_mut()[k] = t;
-                self.skip[g].as_array_mut()[k] = s as i32;
-                self.pad[g].as_array_mut()[k] = o.abs().max_element() * PAD;
+                if lane < n { (origin[lane], dir[lane], tmax(lane), skip[lane]) } else { (origin[0], dir[0], -1.0, NONE) }
+            };
+            let rays = [lane(0), lane(1), lane(2), lane(3)];
+            let column = |f: &dyn Fn(&(Vec3, Vec3, f32, u32)) -> f32| f32x4::new(rays.each_ref().map(f));
+            for axis in 0..3 {
+                self.o[axis][g] = column(&|r| r.0[axis]);
+                self.d[axis][g] = column(&|r| r.1[axis]);
             }
+            self.tmax[g] = column(&|r| r.2);
+            self.skip[g] = i32x4::new(rays.map(|r| r.3 as i32));
+            self.pad[g] = column(&|r| r.0.abs().max_element() * PAD);
             for axis in 0..3 {
                 let d = self.d[axis][g];
                 let flat = d.abs().cmp_lt(f32x4::splat(f32::MIN_POSITIVE));
