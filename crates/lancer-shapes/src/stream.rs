@@ -102,6 +102,9 @@ struct Block {
 
 const NONE: u32 = u32::MAX;
 
+/// One lane's ray as [`Block::load`] reads it: origin, direction, limit, object skipped.
+type LaneRay = (Vec3, Vec3, f32, u32);
+
 /// A box's widening per unit of its own largest coordinate, plus as much per unit of the ray
 /// origin's: well above the relative rounding of the slab test (a few f32 epsilons), so a ray
 /// the object's own test finds crossing it is never dropped at an edge or a face.
@@ -190,7 +193,7 @@ impl Block {
                 if lane < n { (origin[lane], dir[lane], tmax(lane), skip[lane]) } else { (origin[0], dir[0], -1.0, NONE) }
             };
             let rays = [lane(0), lane(1), lane(2), lane(3)];
-            let column = |f: &dyn Fn(&(Vec3, Vec3, f32, u32)) -> f32| f32x4::new(rays.each_ref().map(f));
+            let column = |f: &dyn Fn(&LaneRay) -> f32| f32x4::new(rays.each_ref().map(f));
             for axis in 0..3 {
                 self.o[axis][g] = column(&|r| r.0[axis]);
                 self.d[axis][g] = column(&|r| r.1[axis]);
