@@ -190,7 +190,11 @@ impl Block {
             // every later read of the group wait for four separate stores).
             let lane = |k: usize| {
                 let lane = g * 4 + k;
-                if lane < n { (origin[lane], dir[lane], tmax(lane), skip[lane]) } else { (origin[0], dir[0], -1.0, NONE) }
+                if lane < n {
+                    (origin[lane], dir[lane], tmax(lane), skip[lane])
+                } else {
+                    (origin[0], dir[0], -1.0, NONE)
+                }
             };
             let rays = [lane(0), lane(1), lane(2), lane(3)];
             let column = |f: &dyn Fn(&LaneRay) -> f32| f32x4::new(rays.each_ref().map(f));
