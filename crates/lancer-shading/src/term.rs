@@ -121,7 +121,7 @@ impl TermOutput<'_> {
     }
 
     /// Adds `colour` (before the ray's weight) to the pixel of `lane`.
-    #[inline]
+    #[inline(always)]
     pub fn add(&mut self, lane: usize, colour: Vec3) {
         let layer = self.credit(lane) as usize;
         let added = self.weight * self.rays.weight[lane] * colour;

@@ -67,9 +67,11 @@ fn largest_cubic_root(a: f64, b: f64, c: f64) -> f64 {
     let shift = -a / 3.0;
     let disc = q * q / 4.0 + p * p * p / 27.0;
     let y = if disc > 0.0 {
-        // One real root (Cardano).
+        // One real root (Cardano): u + v with u³ the larger of −q/2 ± √disc (no cancellation)
+        // and v from u v = −p/3: one cube root instead of two.
         let s = disc.sqrt();
-        (-q / 2.0 + s).cbrt() + (-q / 2.0 - s).cbrt()
+        let u = if q > 0.0 { -q / 2.0 - s } else { -q / 2.0 + s }.cbrt();
+        if u == 0.0 { 0.0 } else { u - p / (3.0 * u) }
     } else if p == 0.0 {
         0.0
     } else {
@@ -172,6 +174,17 @@ mod tests {
             for r in roots {
                 assert!(got.iter().any(|g| (g - r).abs() < 1e-6), "{roots:?}: {got:?}");
             }
+        }
+    }
+
+    #[test]
+    fn the_largest_root_of_a_cubic_with_one_real_root_either_sign() {
+        // (x − r)(x² + b x + c) with x² + b x + c > 0 everywhere: Cardano's branch, both signs
+        // of its q, and p of both signs.
+        for (r, b, c) in [(2.0, 2.0, 3.0), (-2.0, 2.0, 3.0), (0.5, 0.0, 1.0), (-7.5, -1.0, 9.0), (1e-3, 0.1, 0.01)] {
+            let (a2, a1, a0) = (b - r, c - r * b, -r * c);
+            let x = largest_cubic_root(a2, a1, a0);
+            assert!((x - r).abs() <= 1e-12 * r.abs().max(1.0), "root {r}: got {x}");
         }
     }
 
