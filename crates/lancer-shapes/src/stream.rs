@@ -102,9 +102,6 @@ struct Block {
 
 const NONE: u32 = u32::MAX;
 
-/// One lane's ray as [`Block::load`] reads it: origin, direction, limit, object skipped.
-type LaneRay = (Vec3, Vec3, f32, u32);
-
 /// A box's widening per unit of its own largest coordinate, plus as much per unit of the ray
 /// origin's: well above the relative rounding of the slab test (a few f32 epsilons), so a ray
 /// the object's own test finds crossing it is never dropped at an edge or a face.
@@ -186,25 +183,26 @@ impl Block {
         self.any_flat = false;
         for g in 0..n.div_ceil(4) {
             // Lanes past the end repeat the first ray, which they never hit anything of. Each
-            // group is built in registers and stored whole (not lane by lane, which would make
-            // every later read of the group wait for four separate stores).
-            let lane = |k: usize| {
+            // group is gathered into plain arrays and stored whole (not lane by lane, which
+            // would make every later read of the group wait for four separate stores).
+            let (mut o, mut d) = ([[0.0f32; 4]; 3], [[0.0f32; 4]; 3]);
+            let (mut limit, mut skipped, mut pad) = ([0.0f32; 4], [0i32; 4], [0.0f32; 4]);
+            for k in 0..4 {
                 let lane = g * 4 + k;
-                if lane < n {
+                let (ok, dk, tk, sk) = if lane < n {
                     (origin[lane], dir[lane], tmax(lane), skip[lane])
                 } else {
                     (origin[0], dir[0], -1.0, NONE)
+                };
+                for axis in 0..3 {
+                    (o[axis][k], d[axis][k]) = (ok[axis], dk[axis]);
                 }
-            };
-            let rays = [lane(0), lane(1), lane(2), lane(3)];
-            let column = |f: &dyn Fn(&LaneRay) -> f32| f32x4::new(rays.each_ref().map(f));
-            for axis in 0..3 {
-                self.o[axis][g] = column(&|r| r.0[axis]);
-                self.d[axis][g] = column(&|r| r.1[axis]);
+                (limit[k], skipped[k], pad[k]) = (tk, sk as i32, ok.abs().max_element() * PAD);
             }
-            self.tmax[g] = column(&|r| r.2);
-            self.skip[g] = i32x4::new(rays.map(|r| r.3 as i32));
-            self.pad[g] = column(&|r| r.0.abs().max_element() * PAD);
+            for axis in 0..3 {
+                (self.o[axis][g], self.d[axis][g]) = (f32x4::new(o[axis]), f32x4::new(d[axis]));
+            }
+            (self.tmax[g], self.skip[g], self.pad[g]) = (f32x4::new(limit), i32x4::new(skipped), f32x4::new(pad));
             for axis in 0..3 {
                 let d = self.d[axis][g];
                 let flat = d.abs().cmp_lt(f32x4::splat(f32::MIN_POSITIVE));
