@@ -94,6 +94,8 @@ struct Block {
     skip: [i32x4; GROUPS],
     /// Whether some lane has a flat axis.
     any_flat: bool,
+    /// Whether `inv`, `flat` and `any_flat` are made for the rays loaded.
+    slabs_ready: bool,
     /// Where every ray of the block stays, when they go roughly the same way.
     cone: Option<Cone>,
     best: [u32; BLOCK],
@@ -172,6 +174,7 @@ impl Block {
             tmax: [f32x4::ZERO; GROUPS],
             skip: [i32x4::ZERO; GROUPS],
             any_flat: false,
+            slabs_ready: false,
             cone: None,
             best: [NONE; BLOCK],
             hit: [ShapeHit { t: 0.0, normal: Vec3::ZERO, part: 0, bary: glam::Vec2::ZERO }; BLOCK],
@@ -180,7 +183,6 @@ impl Block {
 
     fn load(&mut self, origin: &[Vec3], skip: &[u32], dir: &[Vec3], tmax: impl Fn(usize) -> f32) {
         let n = origin.len();
-        self.any_flat = false;
         for g in 0..n.div_ceil(4) {
             // Lanes past the end repeat the first ray, which they never hit anything of. Each
             // group is gathered into plain arrays and stored whole (not lane by lane, which
@@ -203,6 +205,17 @@ impl Block {
                 (self.o[axis][g], self.d[axis][g]) = (f32x4::new(o[axis]), f32x4::new(d[axis]));
             }
             (self.tmax[g], self.skip[g], self.pad[g]) = (f32x4::new(limit), i32x4::new(skipped), f32x4::new(pad));
+        }
+        self.slabs_ready = false;
+        self.best[..n].fill(NONE);
+        self.cone = Cone::of_groups(&self.o, &self.d, n.div_ceil(4));
+    }
+
+    /// What the box tests need of the first `n` rays (`1 / d` and the flat axes): made when
+    /// the first box is tested, not for a block whose boxes the cone culls.
+    fn prepare_slabs(&mut self, n: usize) {
+        self.any_flat = false;
+        for g in 0..n.div_ceil(4) {
             for axis in 0..3 {
                 let d = self.d[axis][g];
                 let flat = d.abs().cmp_lt(f32x4::splat(f32::MIN_POSITIVE));
@@ -211,8 +224,7 @@ impl Block {
                 self.inv[axis][g] = flat.blend(f32x4::ZERO, f32x4::ONE / d);
             }
         }
-        self.best[..n].fill(NONE);
-        self.cone = Cone::of_groups(&self.o, &self.d, n.div_ceil(4));
+        self.slabs_ready = true;
     }
 
     /// Tests `item` against the first `n` rays, keeping each ray's nearest hit.
@@ -222,6 +234,13 @@ impl Block {
             && !cone.may_meet(centre, radius)
         {
             return;
+        }
+        if !matches!(item.test, Test::Boxed { .. }) {
+            self.test_groups::<false>(objects, item, n);
+            return;
+        }
+        if !self.slabs_ready {
+            self.prepare_slabs(n);
         }
         if self.any_flat {
             self.test_groups::<true>(objects, item, n);
