@@ -39,13 +39,54 @@ fn srgb8_thresholds() -> &'static [f32; 255] {
     })
 }
 
-/// 8-bit sRGB pixels of a linear image, row-major RGB: [`srgb8_of`] for every channel, by a
-/// search of its 255 thresholds instead of a power per channel (the same bytes).
+/// How many low bits of a float in [0, 1) its bucket of [`Buckets`] drops: the buckets are
+/// 2⁻⁷ of their value wide, narrower than the gap between two thresholds anywhere in [0, 1)
+/// (the gap is at least 1.1 bucket widths, near 1), so a bucket holds at most one threshold.
+const BUCKET_SHIFT: u32 = 16;
+
+/// The thresholds of [`srgb8_thresholds`] by bucket of float bits: for each bucket, the byte of
+/// its lowest float and the one threshold inside it (infinity if none).
+struct Buckets {
+    base: Vec<u8>,
+    next: Vec<f32>,
+}
+
+fn srgb8_buckets() -> &'static Buckets {
+    static TABLE: std::sync::OnceLock<Buckets> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let thresholds = srgb8_thresholds();
+        let count = (1.0f32.to_bits() >> BUCKET_SHIFT) as usize;
+        let (mut base, mut next) = (Vec::with_capacity(count), Vec::with_capacity(count));
+        for b in 0..count as u32 {
+            let (lo, hi) = (f32::from_bits(b << BUCKET_SHIFT), f32::from_bits(((b + 1) << BUCKET_SHIFT) - 1));
+            let below = thresholds.partition_point(|&t| t <= lo);
+            base.push(below as u8);
+            next.push(thresholds.get(below).copied().filter(|&t| t <= hi).unwrap_or(f32::INFINITY));
+        }
+        Buckets { base, next }
+    })
+}
+
+/// [`srgb8_of`] of one channel: the number of thresholds at or below it, found in its bucket.
+#[inline]
+fn srgb8_fast(c: f32, buckets: &Buckets) -> u8 {
+    if c >= 1.0 {
+        return 255;
+    }
+    // NaN and everything at or below 0 (no threshold is) give 0, as `srgb_encode` takes them.
+    if c.is_nan() || c <= 0.0 {
+        return 0;
+    }
+    let b = (c.to_bits() >> BUCKET_SHIFT) as usize;
+    buckets.base[b] + u8::from(c >= buckets.next[b])
+}
+
+/// 8-bit sRGB pixels of a linear image, row-major RGB: [`srgb8_of`] for every channel, by its
+/// thresholds (a bucket of the float's bits, then one comparison) instead of a power per
+/// channel: the same bytes.
 pub fn to_srgb8(pixels: &[Vec3]) -> Vec<u8> {
-    let thresholds = srgb8_thresholds();
-    // NaN counts as 0 (as `srgb_encode` takes it), which no threshold is at or below.
-    let byte = |c: f32| thresholds.partition_point(|&t| t <= c) as u8;
-    pixels.iter().flat_map(|p| p.to_array()).map(byte).collect()
+    let buckets = srgb8_buckets();
+    pixels.iter().flat_map(|p| p.to_array()).map(|c| srgb8_fast(c, buckets)).collect()
 }
 
 /// A PNG file's bytes: the linear image sRGB-encoded to 8 bits per channel.
@@ -210,6 +251,18 @@ mod tests {
         // Every byte is reached.
         let reached: std::collections::BTreeSet<u8> = bytes.iter().copied().collect();
         assert_eq!(reached.len(), 256);
+    }
+
+    #[test]
+    fn every_bucket_holds_at_most_one_threshold() {
+        // What the bucket lookup relies on: a second threshold in a bucket would be missed.
+        let thresholds = srgb8_thresholds();
+        let mut per_bucket = std::collections::BTreeMap::new();
+        for t in thresholds {
+            *per_bucket.entry(t.to_bits() >> BUCKET_SHIFT).or_insert(0) += 1;
+        }
+        assert!(per_bucket.values().all(|&n| n == 1), "{per_bucket:?}");
+        assert_eq!(per_bucket.len(), 255);
     }
 
     #[test]
