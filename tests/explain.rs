@@ -67,11 +67,14 @@ fn explained_pixels_hold_the_frames_values_to_the_bit() {
     let deep = mirrors.iter().filter(|e| e.rays.iter().any(|r| r.depth >= 3 && r.hit.is_some())).count();
     assert!(deep > 0, "mirror chains of depth 3 or more explained: {deep}");
     every_pixel_matches("scenes/showcase.toml", 32, 1);
+    // 70 wide: two tiles to a band, the second 6 pixels wide, cut through its 8 x 8 cells.
+    every_pixel_matches("scenes/shapes/torus.toml", 70, 1);
 }
 
 #[test]
 fn explained_pixels_match_with_samples_that_straddle_waves() {
-    // 17 samples: a 16×16 tile holds 4352 samples, more than a wave (4096), so a pixel's
-    // samples would be cut between waves if waves did not keep them together.
+    // 17 samples: a 48×16 tile (tiles are 64×16, cut to the image) holds 13 056 samples, more
+    // than three waves (4096 each), so a pixel's samples would be cut between waves if waves did
+    // not keep them together.
     every_pixel_matches("scenes/showcase.toml", 48, 17);
 }

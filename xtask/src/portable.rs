@@ -7,7 +7,7 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use crate::{TaskArgs, build_renderer, parse_common, root, scenes};
+use crate::{TaskArgs, parse_common, root, scenes};
 
 /// The flags of the portable build: the baseline x86-64 instruction set (SSE2), no more.
 const PORTABLE: &str = "-C target-cpu=x86-64";
@@ -22,8 +22,18 @@ pub fn run(args: &[String]) -> Result<()> {
         println!("portable-check: the processor-specific build flags apply to x86-64 only; nothing to compare here");
         return Ok(());
     }
-    let native = build_renderer()?;
-    let portable = build_portable()?;
+    // Both builds with their flags set here: flags in the environment (RUSTFLAGS,
+    // CARGO_ENCODED_RUSTFLAGS) would replace the repository's, and a CARGO_TARGET_DIR would move
+    // the binaries.
+    let native = build("target", None)?;
+    let portable = build("target/portable", Some(PORTABLE))?;
+    if std::fs::read(&native)? == std::fs::read(&portable)? {
+        println!(
+            "portable-check: the build for this processor is the portable build here (a baseline \
+             x86-64 processor): nothing to compare"
+        );
+        return Ok(());
+    }
     let list = scenes(filter.as_deref())?;
     let out = root().join("target/portable-check");
     let (mut files, mut differ) = (0, Vec::new());
@@ -62,20 +72,21 @@ pub fn run(args: &[String]) -> Result<()> {
     Ok(())
 }
 
-/// Builds the renderer with [`PORTABLE`] flags in a target folder of its own.
-fn build_portable() -> Result<PathBuf> {
-    let dir = root().join("target/portable");
-    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-        .args(["build", "--release", "--package", "lancer-cli"])
-        .env("RUSTFLAGS", PORTABLE)
-        .env("CARGO_TARGET_DIR", &dir)
-        .current_dir(root())
-        .status()
-        .context("running cargo build")?;
-    if !status.success() {
-        bail!("building the portable renderer failed");
+/// Builds the renderer into the target folder `dir` (under the repository) with the flags of
+/// `.cargo/config.toml`, or with `flags` instead; the binary's path.
+fn build(dir: &str, flags: Option<&str>) -> Result<PathBuf> {
+    let dir = root().join(dir);
+    let mut cargo = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cargo.args(["build", "--release", "--package", "lancer-cli"]).arg("--target-dir").arg(&dir);
+    cargo.env_remove("RUSTFLAGS").env_remove("CARGO_ENCODED_RUSTFLAGS").env_remove("CARGO_BUILD_RUSTFLAGS");
+    if let Some(flags) = flags {
+        cargo.env("RUSTFLAGS", flags);
     }
-    Ok(dir.join("release/lancer"))
+    let status = cargo.current_dir(root()).status().context("running cargo build")?;
+    if !status.success() {
+        bail!("building the renderer ({}) failed", flags.unwrap_or("the repository's flags"));
+    }
+    Ok(dir.join("release").join(format!("lancer{}", std::env::consts::EXE_SUFFIX)))
 }
 
 /// Renders `scene` at `width` with its per-term images, as linear EXR (every bit of every

@@ -40,8 +40,8 @@ fn srgb8_thresholds() -> &'static [f32; 255] {
 }
 
 /// How many low bits of a float in [0, 1) its bucket of [`Buckets`] drops: the buckets are
-/// 2⁻⁷ of their value wide, narrower than the gap between two thresholds anywhere in [0, 1)
-/// (the gap is at least 1.1 bucket widths, near 1), so a bucket holds at most one threshold.
+/// about 2⁻⁷ of their value wide, narrower than the gap between two thresholds anywhere in
+/// [0, 1), so a bucket holds at most one threshold (a test checks every bucket).
 const BUCKET_SHIFT: u32 = 16;
 
 /// The thresholds of [`srgb8_thresholds`] by bucket of float bits: for each bucket, the byte of
