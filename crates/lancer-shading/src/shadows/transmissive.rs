@@ -75,15 +75,60 @@ pub(crate) fn through_each(
     hits: &[Hit],
     target: impl Fn(usize) -> Vec3,
     tint: bool,
+    done: impl FnMut(usize, Option<Vec3>),
+) {
+    SCRATCH.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut columns) => through_blocks(&mut columns, ctx, hits, target, tint, done),
+        Err(_) => through_blocks(&mut Box::new(Columns::new()), ctx, hits, target, tint, done),
+    })
+}
+
+/// A block's shadow rays (origin, object skipped, direction, length left, distance to the
+/// target), each hit's ray (an index into them) or what it gets without one, and what each ray
+/// meets first.
+struct Columns {
+    origin: [Vec3; BLOCK],
+    skip: [u32; BLOCK],
+    dir: [Vec3; BLOCK],
+    left: [f32; BLOCK],
+    dist: [f32; BLOCK],
+    ray: [Result<usize, Option<Vec3>>; BLOCK],
+    first: [Option<(u32, lancer_shapes::ShapeHit)>; BLOCK],
+}
+
+impl Columns {
+    fn new() -> Columns {
+        Columns {
+            origin: [Vec3::ZERO; BLOCK],
+            skip: [0; BLOCK],
+            dir: [Vec3::ZERO; BLOCK],
+            left: [0.0; BLOCK],
+            dist: [0.0; BLOCK],
+            ray: [Err(None); BLOCK],
+            first: [None; BLOCK],
+        }
+    }
+}
+
+thread_local! {
+    /// Each thread's columns, reused from block to block (not cleared: a block writes the
+    /// lanes it reads).
+    static SCRATCH: std::cell::RefCell<Box<Columns>> = std::cell::RefCell::new(Box::new(Columns::new()));
+}
+
+fn through_blocks(
+    c: &mut Columns,
+    ctx: &ShadowContext<'_>,
+    hits: &[Hit],
+    target: impl Fn(usize) -> Vec3,
+    tint: bool,
     mut done: impl FnMut(usize, Option<Vec3>),
 ) {
+    let Columns { origin, skip, dir, left, dist, ray, first } = c;
     for (start, hits) in (0..).step_by(BLOCK).zip(hits.chunks(BLOCK)) {
-        let (mut origin, mut skip, mut dir) = ([Vec3::ZERO; BLOCK], [0u32; BLOCK], [Vec3::ZERO; BLOCK]);
-        let (mut left, mut dist) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
-        // Each hit's ray (an index into the columns above), or what it gets without one.
-        let mut ray = [Err(None); BLOCK];
         let mut rays = 0;
         for (i, at) in hits.iter().enumerate() {
+            ray[i] = Err(None);
             let Some((d, far)) = ctx.toward(at, target(start + i)) else { continue };
             // The first stretch exactly as `onward` starts it.
             let from = ctx.geometry.spawn(at, d);
@@ -96,7 +141,7 @@ pub(crate) fn through_each(
             ray[i] = Ok(rays);
             rays += 1;
         }
-        let mut first = [None; BLOCK];
+        first[..rays].fill(None);
         ctx.occluders(
             &origin[..rays],
             &skip[..rays],
