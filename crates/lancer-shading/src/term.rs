@@ -139,7 +139,7 @@ impl TermOutput<'_> {
 
     /// Queues a child ray of `lane` from `origin` (see [`Geometry::spawn`]) whose colour counts
     /// `factor` times in the parent's. Does nothing past the depth limit or for a zero factor.
-    #[inline]
+    #[inline(always)]
     pub fn spawn(&mut self, lane: usize, origin: Origin, dir: Vec3, factor: Vec3) {
         let weight = self.weight * self.rays.weight[lane] * factor;
         if !self.can_spawn(lane) || weight == Vec3::ZERO {
