@@ -112,6 +112,12 @@ const PAD: f32 = 1e-5;
 /// Every bit set: a lane's mask of "true".
 const ALL: f32x4 = f32x4::new([f32::from_bits(u32::MAX); 4]);
 
+thread_local! {
+    /// Each thread's block, reused from call to call: a few kilobytes not cleared for every
+    /// batch of shadow rays (only the lanes a call loads are read).
+    static SCRATCH: std::cell::RefCell<Box<Block>> = std::cell::RefCell::new(Box::new(Block::new()));
+}
+
 /// For each ray `lane` of `origin`, `skip`, `dir` (the same length), the closest crossing with
 /// `0 < t < tmax(lane)` of any object but `skip[lane]`: `found(lane, object, crossing)` for each
 /// ray that has one, in lane order.
@@ -124,43 +130,32 @@ pub(crate) fn closest_each(
     tmax: impl Fn(usize) -> f32,
     mut found: impl FnMut(usize, u32, &ShapeHit),
 ) {
-    SCRATCH.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut block) => trace_blocks(&mut block, objects, items, origin, skip, dir, tmax, &mut found),
-        // Called again from inside `found`: a block of its own.
-        Err(_) => trace_blocks(&mut Block::new(), objects, items, origin, skip, dir, tmax, &mut found),
-    });
-}
-
-thread_local! {
-    /// Each thread's block, reused from call to call: a few kilobytes not cleared for every
-    /// batch of shadow rays (only the lanes a call loads are read).
-    static SCRATCH: std::cell::RefCell<Box<Block>> = std::cell::RefCell::new(Box::new(Block::new()));
-}
-
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn trace_blocks(
-    block: &mut Block,
-    objects: &[Object],
-    items: &[Item],
-    origin: &[Vec3],
-    skip: &[u32],
-    dir: &[Vec3],
-    tmax: impl Fn(usize) -> f32,
-    found: &mut impl FnMut(usize, u32, &ShapeHit),
-) {
-    for start in (0..origin.len()).step_by(BLOCK) {
-        let n = (origin.len() - start).min(BLOCK);
-        block.load(&origin[start..start + n], &skip[start..start + n], &dir[start..start + n], |l| tmax(start + l));
-        for item in items {
-            block.test(objects, item, n);
-        }
-        for lane in 0..n {
-            if block.best[lane] != NONE {
-                found(start + lane, block.best[lane], &block.hit[lane]);
+    SCRATCH.with(|cell| {
+        // The thread's block, or one of its own when called again from inside `found`.
+        let (mut shared, mut own);
+        let block: &mut Block = match cell.try_borrow_mut() {
+            Ok(b) => {
+                shared = b;
+                &mut shared
+            }
+            Err(_) => {
+                own = Box::new(Block::new());
+                &mut own
+            }
+        };
+        for start in (0..origin.len()).step_by(BLOCK) {
+            let n = (origin.len() - start).min(BLOCK);
+            block.load(&origin[start..start + n], &skip[start..start + n], &dir[start..start + n], |l| tmax(start + l));
+            for item in items {
+                block.test(objects, item, n);
+            }
+            for lane in 0..n {
+                if block.best[lane] != NONE {
+                    found(start + lane, block.best[lane], &block.hit[lane]);
+                }
             }
         }
-    }
+    });
 }
 
 impl Block {
