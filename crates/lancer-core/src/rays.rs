@@ -83,7 +83,7 @@ impl Rays {
     }
 
     /// Appends one lane.
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn push(&mut self, origin: Vec3, skip: u32, dir: Vec3, weight: Vec3, pixel: u32, depth: u8, credit: u16) {
         self.origin.push(origin);

@@ -61,7 +61,7 @@ impl ShadeContext<'_> {
 
     /// The hit of `lane` (which must have one) as the geometry describes hits: what
     /// [`Geometry::spawn`] and the refraction path take.
-    #[inline]
+    #[inline(always)]
     pub fn hit(&self, hits: &Hits, lane: usize) -> Hit {
         Hit {
             t: hits.t[lane],
