@@ -1,4 +1,4 @@
-//! Rays traced together through a small scene: object after object, four rays at a time. A few
+//! Rays traced together through a small scene: object after object, eight rays at a time. A few
 //! objects tested against a whole block of rays cost less than a walk down the BVH per ray:
 //! spheres and planes are tested in world space with SIMD arithmetic, every other shape behind
 //! a SIMD test of its world box.
@@ -9,7 +9,15 @@
 //! the ray, so a ray traced alone or among others, on any thread, finds the same hit.
 
 use glam::Vec3;
-use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe, f32x4, i32x4};
+use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe, f32x8, i32x8};
+
+/// Rays per SIMD group: eight, an AVX register (two SSE registers in the baseline x86-64
+/// build, with the same results lane by lane).
+const W: usize = 8;
+type Fx = f32x8;
+type Ix = i32x8;
+/// Every lane of a group: the mask of a group whose lanes all pass.
+const FULL: i32 = (1 << W) - 1;
 
 use crate::{Aabb, Object, ShapeHit};
 
@@ -21,9 +29,9 @@ pub(crate) const MOST_OBJECTS: usize = 64;
 
 /// Rays per block: their columns stay on the stack.
 const BLOCK: usize = 64;
-const GROUPS: usize = BLOCK / 4;
+const GROUPS: usize = BLOCK / W;
 
-/// How an object is tested against four rays at once.
+/// How an object is tested against a group of rays at once.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Test {
     /// A sphere scaled the same on every axis, in world space.
@@ -76,22 +84,22 @@ pub(crate) fn plan(objects: &[Object], boxes: &[Option<Aabb>]) -> Vec<Item> {
     items.into_iter().map(|(_, item)| item).collect()
 }
 
-/// A block's rays, four to a SIMD group, and the nearest hit of each so far.
+/// A block's rays, [`W`] to a SIMD group, and the nearest hit of each so far.
 struct Block {
-    o: [[f32x4; GROUPS]; 3],
-    d: [[f32x4; GROUPS]; 3],
+    o: [[Fx; GROUPS]; 3],
+    d: [[Fx; GROUPS]; 3],
     /// `1 / d`, for the box tests.
-    inv: [[f32x4; GROUPS]; 3],
+    inv: [[Fx; GROUPS]; 3],
     /// Lanes whose ray does not move along the axis (or so little that `1 / d` overflows): the
     /// box test checks their position instead of a distance.
-    flat: [[f32x4; GROUPS]; 3],
+    flat: [[Fx; GROUPS]; 3],
     /// How much wider a box is made for each lane: more than the rounding of its slab
     /// arithmetic, which grows with the origin's distance from the world's origin.
-    pad: [f32x4; GROUPS],
+    pad: [Fx; GROUPS],
     /// The nearest hit so far (the ray's own limit to begin with; −1 on lanes past the end,
     /// which nothing passes).
-    tmax: [f32x4; GROUPS],
-    skip: [i32x4; GROUPS],
+    tmax: [Fx; GROUPS],
+    skip: [Ix; GROUPS],
     /// Whether some lane has a flat axis.
     any_flat: bool,
     /// Whether `inv`, `flat` and `any_flat` are made for the rays loaded.
@@ -110,7 +118,7 @@ const NONE: u32 = u32::MAX;
 const PAD: f32 = 1e-5;
 
 /// Every bit set: a lane's mask of "true".
-const ALL: f32x4 = f32x4::new([f32::from_bits(u32::MAX); 4]);
+const ALL: Fx = Fx::new([f32::from_bits(u32::MAX); W]);
 
 thread_local! {
     /// Each thread's block, reused from call to call: a few kilobytes not cleared for every
@@ -161,13 +169,13 @@ pub(crate) fn closest_each(
 impl Block {
     fn new() -> Block {
         Block {
-            o: [[f32x4::ZERO; GROUPS]; 3],
-            d: [[f32x4::ZERO; GROUPS]; 3],
-            inv: [[f32x4::ZERO; GROUPS]; 3],
-            flat: [[f32x4::ZERO; GROUPS]; 3],
-            pad: [f32x4::ZERO; GROUPS],
-            tmax: [f32x4::ZERO; GROUPS],
-            skip: [i32x4::ZERO; GROUPS],
+            o: [[Fx::ZERO; GROUPS]; 3],
+            d: [[Fx::ZERO; GROUPS]; 3],
+            inv: [[Fx::ZERO; GROUPS]; 3],
+            flat: [[Fx::ZERO; GROUPS]; 3],
+            pad: [Fx::ZERO; GROUPS],
+            tmax: [Fx::ZERO; GROUPS],
+            skip: [Ix::ZERO; GROUPS],
             any_flat: false,
             slabs_ready: false,
             cone: None,
@@ -178,14 +186,14 @@ impl Block {
 
     fn load(&mut self, origin: &[Vec3], skip: &[u32], dir: &[Vec3], tmax: impl Fn(usize) -> f32) {
         let n = origin.len();
-        for g in 0..n.div_ceil(4) {
+        for g in 0..n.div_ceil(W) {
             // Lanes past the end repeat the first ray, which they never hit anything of. Each
             // group is gathered into plain arrays and stored whole (not lane by lane, which
-            // would make every later read of the group wait for four separate stores).
-            let (mut o, mut d) = ([[0.0f32; 4]; 3], [[0.0f32; 4]; 3]);
-            let (mut limit, mut skipped, mut pad) = ([0.0f32; 4], [0i32; 4], [0.0f32; 4]);
-            for k in 0..4 {
-                let lane = g * 4 + k;
+            // would make every later read of the group wait for separate stores).
+            let (mut o, mut d) = ([[0.0f32; W]; 3], [[0.0f32; W]; 3]);
+            let (mut limit, mut skipped, mut pad) = ([0.0f32; W], [0i32; W], [0.0f32; W]);
+            for k in 0..W {
+                let lane = g * W + k;
                 let (ok, dk, tk, sk) = if lane < n {
                     (origin[lane], dir[lane], tmax(lane), skip[lane])
                 } else {
@@ -197,26 +205,26 @@ impl Block {
                 (limit[k], skipped[k], pad[k]) = (tk, sk as i32, ok.abs().max_element() * PAD);
             }
             for axis in 0..3 {
-                (self.o[axis][g], self.d[axis][g]) = (f32x4::new(o[axis]), f32x4::new(d[axis]));
+                (self.o[axis][g], self.d[axis][g]) = (Fx::new(o[axis]), Fx::new(d[axis]));
             }
-            (self.tmax[g], self.skip[g], self.pad[g]) = (f32x4::new(limit), i32x4::new(skipped), f32x4::new(pad));
+            (self.tmax[g], self.skip[g], self.pad[g]) = (Fx::new(limit), Ix::new(skipped), Fx::new(pad));
         }
         self.slabs_ready = false;
         self.best[..n].fill(NONE);
-        self.cone = Cone::of_groups(&self.o, &self.d, n.div_ceil(4));
+        self.cone = Cone::of_groups(&self.o, &self.d, n.div_ceil(W));
     }
 
     /// What the box tests need of the first `n` rays (`1 / d` and the flat axes): made when
     /// the first box is tested, not for a block whose boxes the cone culls.
     fn prepare_slabs(&mut self, n: usize) {
         self.any_flat = false;
-        for g in 0..n.div_ceil(4) {
+        for g in 0..n.div_ceil(W) {
             for axis in 0..3 {
                 let d = self.d[axis][g];
-                let flat = d.abs().cmp_lt(f32x4::splat(f32::MIN_POSITIVE));
+                let flat = d.abs().cmp_lt(Fx::splat(f32::MIN_POSITIVE));
                 self.any_flat |= flat.move_mask() != 0;
                 self.flat[axis][g] = flat;
-                self.inv[axis][g] = flat.blend(f32x4::ZERO, f32x4::ONE / d);
+                self.inv[axis][g] = flat.blend(Fx::ZERO, Fx::ONE / d);
             }
         }
         self.slabs_ready = true;
@@ -246,12 +254,12 @@ impl Block {
 
     #[inline(always)]
     fn test_groups<const FLAT: bool>(&mut self, objects: &[Object], item: &Item, n: usize) {
-        let skip = i32x4::splat(item.object as i32);
-        for g in 0..n.div_ceil(4) {
+        let skip = Ix::splat(item.object as i32);
+        for g in 0..n.div_ceil(W) {
             let (o, d) = ([self.o[0][g], self.o[1][g], self.o[2][g]], [self.d[0][g], self.d[1][g], self.d[2][g]]);
             let tmax = self.tmax[g];
             let skipped = self.skip[g].cmp_eq(skip).move_mask();
-            if skipped == 0b1111 {
+            if skipped == FULL {
                 continue;
             }
             match item.test {
@@ -270,7 +278,7 @@ impl Block {
                     while met != 0 {
                         let k = met.trailing_zeros() as usize;
                         met &= met - 1;
-                        let lane = g * 4 + k;
+                        let lane = g * W + k;
                         let (ray_o, ray_d) = (lane_vec(&o, k), lane_vec(&d, k));
                         let limit = self.tmax[g].as_array_ref()[k];
                         if let Some(c) = objects[item.object as usize].intersect(ray_o, ray_d, 0.0, limit) {
@@ -287,42 +295,42 @@ impl Block {
     /// Keeps the hits `t` of the lanes of group `g` set in `met` (a world-space test's: no part,
     /// its normal found later).
     #[inline(always)]
-    fn keep(&mut self, g: usize, mut met: i32, t: f32x4, object: u32, normal: Vec3) {
+    fn keep(&mut self, g: usize, mut met: i32, t: Fx, object: u32, normal: Vec3) {
         while met != 0 {
             let k = met.trailing_zeros() as usize;
             met &= met - 1;
             let t = t.as_array_ref()[k];
             self.tmax[g].as_array_mut()[k] = t;
-            self.best[g * 4 + k] = object;
-            self.hit[g * 4 + k] = ShapeHit { t, normal, part: 0, bary: glam::Vec2::ZERO };
+            self.best[g * W + k] = object;
+            self.hit[g * W + k] = ShapeHit { t, normal, part: 0, bary: glam::Vec2::ZERO };
         }
     }
 }
 
 #[inline(always)]
-fn lane_vec(v: &[f32x4; 3], k: usize) -> Vec3 {
+fn lane_vec(v: &[Fx; 3], k: usize) -> Vec3 {
     Vec3::new(v[0].as_array_ref()[k], v[1].as_array_ref()[k], v[2].as_array_ref()[k])
 }
 
 /// `0 < t < tmax`, as [`Object::intersect`] accepts a crossing.
 #[inline(always)]
-fn within(t: f32x4, tmax: f32x4) -> f32x4 {
-    t.cmp_gt(f32x4::ZERO) & t.cmp_lt(tmax)
+fn within(t: Fx, tmax: Fx) -> Fx {
+    t.cmp_gt(Fx::ZERO) & t.cmp_lt(tmax)
 }
 
 /// `a · b` in the order of glam's `Vec3::dot`: `(x x' + y y') + z z'`.
 #[inline(always)]
-fn dot(a: [f32x4; 3], b: [f32x4; 3]) -> f32x4 {
+fn dot(a: [Fx; 3], b: [Fx; 3]) -> Fx {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// The sphere test of [`Object::intersect`] (`sphere_roots_world`, then the nearer root within
-/// range, else the farther) on four rays: the same operations in the same order, so the same
+/// range, else the farther) on a group of rays: the same operations in the same order, so the same
 /// bits. Returns the distances and the mask of lanes that hit.
 #[inline(always)]
-fn sphere(o: [f32x4; 3], d: [f32x4; 3], centre: Vec3, radius2: f32, tmax: f32x4) -> (f32x4, i32) {
-    let oc = [o[0] - f32x4::splat(centre.x), o[1] - f32x4::splat(centre.y), o[2] - f32x4::splat(centre.z)];
-    let r2 = f32x4::splat(radius2);
+fn sphere(o: [Fx; 3], d: [Fx; 3], centre: Vec3, radius2: f32, tmax: Fx) -> (Fx, i32) {
+    let oc = [o[0] - Fx::splat(centre.x), o[1] - Fx::splat(centre.y), o[2] - Fx::splat(centre.z)];
+    let r2 = Fx::splat(radius2);
     let a = dot(d, d);
     let b = dot(oc, d);
     let s = b / a;
@@ -330,45 +338,45 @@ fn sphere(o: [f32x4; 3], d: [f32x4; 3], centre: Vec3, radius2: f32, tmax: f32x4)
     let disc = a * (r2 - dot(q, q));
     // No lane with real roots (the scalar test's own `disc`, so exactly the lanes it rejects):
     // no root or division more.
-    if disc.cmp_ge(f32x4::ZERO).move_mask() == 0 {
-        return (f32x4::ZERO, 0);
+    if disc.cmp_ge(Fx::ZERO).move_mask() == 0 {
+        return (Fx::ZERO, 0);
     }
     let c = dot(oc, oc) - r2;
-    let h = (b + disc.sqrt().copysign(b)) ^ f32x4::splat(-0.0);
+    let h = (b + disc.sqrt().copysign(b)) ^ Fx::splat(-0.0);
     let (r0, r1) = (h / a, c / h);
     let ordered = r0.cmp_le(r1);
     let (t0, t1) = (ordered.blend(r0, r1), ordered.blend(r1, r0));
     let (ok0, ok1) = (within(t0, tmax), within(t1, tmax));
-    let real = a.cmp_ne(f32x4::ZERO) & disc.cmp_ge(f32x4::ZERO) & h.cmp_ne(f32x4::ZERO);
+    let real = a.cmp_ne(Fx::ZERO) & disc.cmp_ge(Fx::ZERO) & h.cmp_ne(Fx::ZERO);
     (ok0.blend(t0, t1), (real & (ok0 | ok1)).move_mask())
 }
 
-/// The plane test of [`Object::intersect`] on four rays, with the same bits.
+/// The plane test of [`Object::intersect`] on a group of rays, with the same bits.
 #[inline(always)]
-fn plane(o: [f32x4; 3], d: [f32x4; 3], normal: Vec3, offset: f32, tmax: f32x4) -> (f32x4, i32) {
-    let n = [f32x4::splat(normal.x), f32x4::splat(normal.y), f32x4::splat(normal.z)];
+fn plane(o: [Fx; 3], d: [Fx; 3], normal: Vec3, offset: f32, tmax: Fx) -> (Fx, i32) {
+    let n = [Fx::splat(normal.x), Fx::splat(normal.y), Fx::splat(normal.z)];
     let along = dot(n, d);
-    let t = (f32x4::splat(offset) - dot(n, o)) / along;
-    (t, (along.cmp_ne(f32x4::ZERO) & within(t, tmax)).move_mask())
+    let t = (Fx::splat(offset) - dot(n, o)) / along;
+    (t, (along.cmp_ne(Fx::ZERO) & within(t, tmax)).move_mask())
 }
 
 /// The lanes whose ray meets the box `[min, max]`, widened by the lane's `pad`, within
 /// `[0, tmax]` (faces included; a flat axis by the origin's position).
 #[inline(always)]
 fn slabs<const FLAT: bool>(
-    o: [f32x4; 3],
-    inv: [f32x4; 3],
-    flat: [f32x4; 3],
+    o: [Fx; 3],
+    inv: [Fx; 3],
+    flat: [Fx; 3],
     min: Vec3,
     max: Vec3,
-    pad: f32x4,
-    tmax: f32x4,
+    pad: Fx,
+    tmax: Fx,
 ) -> i32 {
-    let mut near = f32x4::ZERO;
+    let mut near = Fx::ZERO;
     let mut far = tmax;
     let mut inside = ALL;
     for axis in 0..3 {
-        let (lo, hi) = (f32x4::splat(min[axis]) - pad, f32x4::splat(max[axis]) + pad);
+        let (lo, hi) = (Fx::splat(min[axis]) - pad, Fx::splat(max[axis]) + pad);
         let (t_lo, t_hi) = ((lo - o[axis]) * inv[axis], (hi - o[axis]) * inv[axis]);
         if FLAT {
             near = flat[axis].blend(near, near.max(t_lo.min(t_hi)));
@@ -395,28 +403,28 @@ struct Cone {
 }
 
 impl Cone {
-    /// The cone of a block's rays `o + t d`, `t ≥ 0`, in its first `groups` groups of four;
+    /// The cone of a block's rays `o + t d`, `t ≥ 0`, in its first `groups` groups;
     /// `None` if their directions spread over more than a half-space (or one is zero or not
     /// finite, or an origin is not finite).
-    fn of_groups(o: &[[f32x4; GROUPS]; 3], d: &[[f32x4; GROUPS]; 3], groups: usize) -> Option<Cone> {
-        let lanes = |v: f32x4| v.to_array();
+    fn of_groups(o: &[[Fx; GROUPS]; 3], d: &[[Fx; GROUPS]; 3], groups: usize) -> Option<Cone> {
+        let lanes = |v: Fx| v.to_array();
         let (mut lo, mut hi, mut sum) =
-            ([f32x4::splat(f32::INFINITY); 3], [f32x4::splat(f32::NEG_INFINITY); 3], [f32x4::ZERO; 3]);
+            ([Fx::splat(f32::INFINITY); 3], [Fx::splat(f32::NEG_INFINITY); 3], [Fx::ZERO; 3]);
         let mut finite = ALL;
         for g in 0..groups {
             for axis in 0..3 {
                 let v = o[axis][g];
                 // Not NaN and not infinite: `min`/`max` would pass over a NaN.
-                finite &= v.abs().cmp_lt(f32x4::splat(f32::INFINITY));
+                finite &= v.abs().cmp_lt(Fx::splat(f32::INFINITY));
                 (lo[axis], hi[axis]) = (lo[axis].min(v), hi[axis].max(v));
                 sum[axis] += d[axis][g];
             }
         }
-        if finite.move_mask() != 0b1111 {
+        if finite.move_mask() != FULL {
             return None;
         }
-        let low = |v: f32x4| lanes(v).into_iter().fold(f32::INFINITY, f32::min);
-        let high = |v: f32x4| lanes(v).into_iter().fold(f32::NEG_INFINITY, f32::max);
+        let low = |v: Fx| lanes(v).into_iter().fold(f32::INFINITY, f32::min);
+        let high = |v: Fx| lanes(v).into_iter().fold(f32::NEG_INFINITY, f32::max);
         let apex = Vec3::new(
             (low(lo[0]) + high(hi[0])) * 0.5,
             (low(lo[1]) + high(hi[1])) * 0.5,
@@ -425,8 +433,8 @@ impl Cone {
         // Any axis among the directions will do: the half-angle is measured from it.
         let axis = Vec3::new(lanes(sum[0]).iter().sum(), lanes(sum[1]).iter().sum(), lanes(sum[2]).iter().sum())
             .try_normalize()?;
-        let (c, a) = (apex.to_array().map(f32x4::splat), axis.to_array().map(f32x4::splat));
-        let (mut spread2, mut sin2, mut cos, mut sound) = (f32x4::ZERO, f32x4::ZERO, f32x4::ONE, ALL);
+        let (c, a) = (apex.to_array().map(Fx::splat), axis.to_array().map(Fx::splat));
+        let (mut spread2, mut sin2, mut cos, mut sound) = (Fx::ZERO, Fx::ZERO, Fx::ONE, ALL);
         for g in 0..groups {
             let v = [o[0][g] - c[0], o[1][g] - c[1], o[2][g] - c[2]];
             spread2 = spread2.max(dot(v, v));
@@ -435,13 +443,13 @@ impl Cone {
             // root; a zero, infinite or NaN direction makes `len2` unsound, and so does one so
             // short that its cross product with the axis loses its digits.
             let len2 = dot(w, w);
-            sound &= len2.cmp_ge(f32x4::splat(1e-30)) & len2.cmp_lt(f32x4::splat(f32::INFINITY));
+            sound &= len2.cmp_ge(Fx::splat(1e-30)) & len2.cmp_lt(Fx::splat(f32::INFINITY));
             let x = [w[1] * a[2] - w[2] * a[1], w[2] * a[0] - w[0] * a[2], w[0] * a[1] - w[1] * a[0]];
             sin2 = sin2.max(dot(x, x) / len2);
             cos = cos.min(dot(w, a));
         }
         // Within a half-space around the axis.
-        if sound.move_mask() != 0b1111 || cos.cmp_gt(f32x4::ZERO).move_mask() != 0b1111 {
+        if sound.move_mask() != FULL || cos.cmp_gt(Fx::ZERO).move_mask() != FULL {
             return None;
         }
         let sin = high(sin2).sqrt() * (1.0 + 1e-3) + 1e-6;
@@ -582,9 +590,9 @@ mod tests {
                 };
                 origin.push(o);
                 dir.push(d);
-                // Four rays in a row that ignore the same object (as a group of secondary rays
-                // leaving it does), now and then.
-                skip.push(if k / 4 % 5 == 0 { (k / 4 % g.objects.len()) as u32 } else { NO_SKIP });
+                // A group's worth of rays in a row that ignore the same object (as secondary rays
+                // leaving it do), now and then.
+                skip.push(if k / super::W % 5 == 0 { (k / super::W % g.objects.len()) as u32 } else { NO_SKIP });
                 limit.push(if k % 5 == 0 { f(0.0, 20.0) * size } else { f32::INFINITY });
             }
             // Now and then a block with a zero, a NaN and a very short direction among the others.
