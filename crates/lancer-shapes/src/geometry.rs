@@ -412,7 +412,7 @@ impl Geometry {
     /// [`Geometry::closest`] with `tmin = 0` for many rays at once: for each ray `lane` of
     /// `origin`, `skip` and `dir` (the same length), `found(lane, object, crossing)` with its
     /// closest crossing within `0 < t < tmax(lane)`, if it has one, in lane order. A small scene
-    /// tests its objects against blocks of rays, four at a time; a larger one walks the BVH
+    /// tests its objects against blocks of rays, a SIMD group at a time; a larger one walks the BVH
     /// for each ray. Either way a ray's answer depends only on the ray.
     pub fn closest_each(
         &self,

@@ -363,15 +363,7 @@ fn plane(o: [Fx; 3], d: [Fx; 3], normal: Vec3, offset: f32, tmax: Fx) -> (Fx, i3
 /// The lanes whose ray meets the box `[min, max]`, widened by the lane's `pad`, within
 /// `[0, tmax]` (faces included; a flat axis by the origin's position).
 #[inline(always)]
-fn slabs<const FLAT: bool>(
-    o: [Fx; 3],
-    inv: [Fx; 3],
-    flat: [Fx; 3],
-    min: Vec3,
-    max: Vec3,
-    pad: Fx,
-    tmax: Fx,
-) -> i32 {
+fn slabs<const FLAT: bool>(o: [Fx; 3], inv: [Fx; 3], flat: [Fx; 3], min: Vec3, max: Vec3, pad: Fx, tmax: Fx) -> i32 {
     let mut near = Fx::ZERO;
     let mut far = tmax;
     let mut inside = ALL;
