@@ -584,7 +584,11 @@ mod tests {
                 dir.push(d);
                 // A group's worth of rays in a row that ignore the same object (as secondary rays
                 // leaving it do), now and then.
-                skip.push(if k / super::W % 5 == 0 { (k / super::W % g.objects.len()) as u32 } else { NO_SKIP });
+                skip.push(if (k / super::W).is_multiple_of(5) {
+                    (k / super::W % g.objects.len()) as u32
+                } else {
+                    NO_SKIP
+                });
                 limit.push(if k % 5 == 0 { f(0.0, 20.0) * size } else { f32::INFINITY });
             }
             // Now and then a block with a zero, a NaN and a very short direction among the others.
