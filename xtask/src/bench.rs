@@ -195,7 +195,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let mut targets: Vec<Target> = Vec::new();
 
     println!(
-        "Anchor scene (scenes/bench/anchor.toml vs anchor.pov), 1280x720, no anti-aliasing, depth 5, median of {runs} runs"
+        "Anchor scene (scenes/bench/anchor.toml vs anchor.pov), 1280x720, no anti-aliasing, depth 5, median of {runs} interleaved runs"
     );
     println!(
         "{:<8} {:>11} {:>8} {:>16} {:>11} {:>10} {:>11} {:>16}",
@@ -208,15 +208,26 @@ pub fn run(args: &[String]) -> Result<()> {
         "povray (s)",
         "povray / lancer"
     );
+    // Round after round, each round one run of every configuration (Lancer and POV-Ray, one
+    // thread and two): the machine's speed drifts by several percent over a minute, and
+    // interleaving makes each ratio compare runs made at the same time.
+    let mut lancer_runs: [Vec<Run>; 2] = [Vec::new(), Vec::new()];
+    let mut pov_runs: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    for _ in 0..runs.max(1) {
+        for (k, threads) in [1u32, 2].into_iter().enumerate() {
+            lancer_runs[k].push(lancer_run(&lancer, &anchor, threads, &[])?);
+            if has_pov {
+                pov_runs[k].push(povray_run(&pov, 1280, 720, threads)?);
+            }
+        }
+    }
     let mut anchor_rows = Vec::new();
     let mut by_threads = Vec::new();
-    for threads in [1u32, 2] {
-        let r = median_run(&lancer, &anchor, threads, runs, &[])?;
-        let pov_t = if has_pov {
-            Some(median((0..runs).map(|_| povray_run(&pov, 1280, 720, threads)).collect::<Result<Vec<_>>>()?))
-        } else {
-            None
-        };
+    for (k, threads) in [1u32, 2].into_iter().enumerate() {
+        let mut all = std::mem::take(&mut lancer_runs[k]);
+        all.sort_by(|a, b| a.secs.total_cmp(&b.secs));
+        let r = all[all.len() / 2];
+        let pov_t = has_pov.then(|| median(std::mem::take(&mut pov_runs[k])));
         // Per-ray cost in thread-nanoseconds, comparable across thread counts and scenes.
         let ns = threads as f64 * r.secs * 1e9 / r.rays;
         let per_thread = r.rays / 1e6 / r.secs / threads as f64;
