@@ -75,9 +75,14 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// The run with the median render time of `runs` renders of `scene` on `threads` threads.
 fn median_run(lancer: &Path, scene: &Path, threads: u32, runs: usize, extra: &[&str]) -> Result<Run> {
-    let mut all = (0..runs.max(1)).map(|_| lancer_run(lancer, scene, threads, extra)).collect::<Result<Vec<_>>>()?;
+    let all = (0..runs.max(1)).map(|_| lancer_run(lancer, scene, threads, extra)).collect::<Result<Vec<_>>>()?;
+    Ok(median_by_secs(all))
+}
+
+/// The run with the median render time of `all` (not empty).
+fn median_by_secs(mut all: Vec<Run>) -> Run {
     all.sort_by(|a, b| a.secs.total_cmp(&b.secs));
-    Ok(all[all.len() / 2])
+    all[all.len() / 2]
 }
 
 fn povray_installed() -> bool {
@@ -210,7 +215,8 @@ pub fn run(args: &[String]) -> Result<()> {
     );
     // Round after round, each round one run of every configuration (Lancer and POV-Ray, one
     // thread and two): the machine's speed drifts by several percent over a minute, and
-    // interleaving makes each ratio compare runs made at the same time.
+    // interleaved, the runs of every configuration (whose medians the ratios divide) sample
+    // the same stretch of time.
     let mut lancer_runs: [Vec<Run>; 2] = [Vec::new(), Vec::new()];
     let mut pov_runs: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     for _ in 0..runs.max(1) {
@@ -224,9 +230,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let mut anchor_rows = Vec::new();
     let mut by_threads = Vec::new();
     for (k, threads) in [1u32, 2].into_iter().enumerate() {
-        let mut all = std::mem::take(&mut lancer_runs[k]);
-        all.sort_by(|a, b| a.secs.total_cmp(&b.secs));
-        let r = all[all.len() / 2];
+        let r = median_by_secs(std::mem::take(&mut lancer_runs[k]));
         let pov_t = has_pov.then(|| median(std::mem::take(&mut pov_runs[k])));
         // Per-ray cost in thread-nanoseconds, comparable across thread counts and scenes.
         let ns = threads as f64 * r.secs * 1e9 / r.rays;
@@ -428,7 +432,7 @@ pub fn run(args: &[String]) -> Result<()> {
                 bail!("lancer export pov failed: {}", String::from_utf8_lossy(&out.stderr));
             }
             let r = median_run(&lancer, scene, 2, runs, &extra)?;
-            let p = median((0..runs).map(|_| povray_run(&pov_file, 1280, 720, 2)).collect::<Result<Vec<_>>>()?);
+            let p = median((0..runs.max(1)).map(|_| povray_run(&pov_file, 1280, 720, 2)).collect::<Result<Vec<_>>>()?);
             println!("{what:<58} {:>11.3} {p:>11.3} {:>15.2}x", r.secs, p / r.secs);
             mesh_pov_rows
                 .push(serde_json::json!({ "scene": what, "lancer_s": r.secs, "povray_s": p, "ratio": p / r.secs }));

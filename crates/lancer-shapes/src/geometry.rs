@@ -108,7 +108,7 @@ impl Object {
         Some(Object { shape, world_from_object, object_from_world, world_from_object_normal, material, fast, identity })
     }
 
-    /// The world-space test [`crate::stream`] runs on four rays at once, for a shape placed so
+    /// The world-space test [`crate::stream`] runs on a SIMD group of rays at once, for a shape placed so
     /// that it has one (a sphere scaled the same on every axis, a plane); `None` otherwise.
     pub(crate) fn world_test(&self) -> Option<crate::stream::Test> {
         match self.fast {

@@ -9,7 +9,7 @@
 //! the ray, so a ray traced alone or among others, on any thread, finds the same hit.
 
 use glam::Vec3;
-use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe, f32x8, i32x8};
+use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, f32x8, i32x8};
 
 /// Rays per SIMD group: eight, an AVX register (two SSE registers in the baseline x86-64
 /// build, with the same results lane by lane).
@@ -23,13 +23,16 @@ use crate::{Aabb, Object, ShapeHit};
 
 /// The most bounded objects a scene may have for its rays to be traced object by object; more,
 /// and each ray walks the BVH. Measured on a grid of spheres over a floor (640x360, one
-/// thread): object by object is faster up to 64 spheres (0.046 against 0.053 s), about even at
-/// 128 (0.058 against 0.056 s) and slower at 256 (0.083 against 0.058 s).
+/// thread, measured with groups of four rays): object by object is faster up to 64 spheres
+/// (0.046 against 0.053 s), about even at 128 (0.058 against 0.056 s) and slower at 256 (0.083
+/// against 0.058 s).
 pub(crate) const MOST_OBJECTS: usize = 64;
 
 /// Rays per block: their columns stay on the stack.
 const BLOCK: usize = 64;
 const GROUPS: usize = BLOCK / W;
+// Whole groups, and a group's lanes fit a mask.
+const _: () = assert!(BLOCK.is_multiple_of(W) && W <= 32);
 
 /// How an object is tested against a group of rays at once.
 #[derive(Clone, Copy, Debug)]
@@ -347,7 +350,7 @@ fn sphere(o: [Fx; 3], d: [Fx; 3], centre: Vec3, radius2: f32, tmax: Fx) -> (Fx, 
     let ordered = r0.cmp_le(r1);
     let (t0, t1) = (ordered.blend(r0, r1), ordered.blend(r1, r0));
     let (ok0, ok1) = (within(t0, tmax), within(t1, tmax));
-    let real = a.cmp_ne(Fx::ZERO) & disc.cmp_ge(Fx::ZERO) & h.cmp_ne(Fx::ZERO);
+    let real = !a.cmp_eq(Fx::ZERO) & disc.cmp_ge(Fx::ZERO) & !h.cmp_eq(Fx::ZERO);
     (ok0.blend(t0, t1), (real & (ok0 | ok1)).move_mask())
 }
 
@@ -357,7 +360,7 @@ fn plane(o: [Fx; 3], d: [Fx; 3], normal: Vec3, offset: f32, tmax: Fx) -> (Fx, i3
     let n = [Fx::splat(normal.x), Fx::splat(normal.y), Fx::splat(normal.z)];
     let along = dot(n, d);
     let t = (Fx::splat(offset) - dot(n, o)) / along;
-    (t, (along.cmp_ne(Fx::ZERO) & within(t, tmax)).move_mask())
+    (t, (!along.cmp_eq(Fx::ZERO) & within(t, tmax)).move_mask())
 }
 
 /// The lanes whose ray meets the box `[min, max]`, widened by the lane's `pad`, within
