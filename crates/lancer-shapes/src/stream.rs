@@ -11,6 +11,8 @@
 use glam::Vec3;
 use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, f32x8, i32x8};
 
+use crate::{Aabb, Object, ShapeHit};
+
 /// Rays per SIMD group: eight, an AVX register (two SSE registers in the baseline x86-64
 /// build, with the same results lane by lane).
 const W: usize = 8;
@@ -18,8 +20,6 @@ type Fx = f32x8;
 type Ix = i32x8;
 /// Every lane of a group: the mask of a group whose lanes all pass.
 const FULL: i32 = (1 << W) - 1;
-
-use crate::{Aabb, Object, ShapeHit};
 
 /// The most bounded objects a scene may have for its rays to be traced object by object; more,
 /// and each ray walks the BVH. Measured on a grid of spheres over a floor (640x360, one
