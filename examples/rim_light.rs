@@ -46,7 +46,7 @@ struct Rim {
 impl Term for Rim {
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for lane in chunk.hit_lanes() {
-            let facing_viewer = chunk.hits.facing_normal(lane).dot(-chunk.rays.dir[lane]).clamp(0.0, 1.0);
+            let facing_viewer = chunk.hits.facing_normal(lane).dot(-chunk.rays.dir.at(lane)).clamp(0.0, 1.0);
             let rim = self.strength * (1.0 - facing_viewer).powf(self.power);
             out.add(lane, rim * ctx.color(chunk.hits, lane));
         }

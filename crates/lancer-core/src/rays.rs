@@ -14,15 +14,131 @@ pub const CREDIT_OWN: u16 = u16::MAX;
 /// `Hits::object` of a lane whose ray hit nothing.
 pub const NO_HIT: u32 = u32::MAX;
 
+/// Lanes per [`Packet`]: eight, one SIMD group.
+pub const PACKET: usize = 8;
+
+/// Eight lanes of vectors axis by axis: `[x; 8]`, `[y; 8]`, `[z; 8]`.
+pub type Packet = [[f32; PACKET]; 3];
+
+/// A column of vectors stored eight lanes to a [`Packet`], axis by axis within it: a system
+/// loads an axis of eight lanes at once, and one lane's three coordinates still sit together
+/// (one bounds check, one cache line). [`Vec3s::at`] reads a lane as a `Vec3`. The lanes of the
+/// last packet past [`Vec3s::len`] hold no meaning.
+#[derive(Clone, Debug, Default)]
+pub struct Vec3s {
+    packets: Vec<Packet>,
+    len: usize,
+}
+
+impl Vec3s {
+    /// An empty column with room for `n` lanes.
+    pub fn with_capacity(n: usize) -> Vec3s {
+        Vec3s { packets: Vec::with_capacity(n.div_ceil(PACKET)), len: 0 }
+    }
+
+    /// Number of lanes.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the column has no lanes.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The vector of `lane`. (A lane past the end panics where it is past the last packet;
+    /// within the last packet only debug builds check it.)
+    #[inline(always)]
+    pub fn at(&self, lane: usize) -> Vec3 {
+        debug_assert!(lane < self.len, "lane {lane} of {}", self.len);
+        let (p, k) = (&self.packets[lane / PACKET], lane % PACKET);
+        Vec3::new(p[0][k], p[1][k], p[2][k])
+    }
+
+    /// Writes the vector of `lane` (checked as [`Vec3s::at`] is).
+    #[inline(always)]
+    pub fn set(&mut self, lane: usize, v: Vec3) {
+        debug_assert!(lane < self.len, "lane {lane} of {}", self.len);
+        let (p, k) = (&mut self.packets[lane / PACKET], lane % PACKET);
+        (p[0][k], p[1][k], p[2][k]) = (v.x, v.y, v.z);
+    }
+
+    /// Appends one lane.
+    #[inline(always)]
+    pub fn push(&mut self, v: Vec3) {
+        let k = self.len % PACKET;
+        if k == 0 {
+            self.packets.push([[v.x; PACKET], [v.y; PACKET], [v.z; PACKET]]);
+        } else {
+            let p = &mut self.packets[self.len / PACKET];
+            (p[0][k], p[1][k], p[2][k]) = (v.x, v.y, v.z);
+        }
+        self.len += 1;
+    }
+
+    /// Removes every lane, keeping the capacity.
+    pub fn clear(&mut self) {
+        self.packets.clear();
+        self.len = 0;
+    }
+
+    /// Makes the column `n` lanes long, new lanes `v`.
+    pub fn resize(&mut self, n: usize, v: Vec3) {
+        if n <= self.len {
+            self.packets.truncate(n.div_ceil(PACKET));
+            self.len = n;
+            return;
+        }
+        while self.len % PACKET != 0 && self.len < n {
+            self.push(v);
+        }
+        let whole = [[v.x; PACKET], [v.y; PACKET], [v.z; PACKET]];
+        self.packets.resize(n.div_ceil(PACKET), whole);
+        self.len = n;
+    }
+
+    /// Sets every lane to `v`.
+    pub fn fill(&mut self, v: Vec3) {
+        self.packets.fill([[v.x; PACKET], [v.y; PACKET], [v.z; PACKET]]);
+    }
+
+    /// Appends `src`'s lanes `range`: packet by packet where both sides start a packet.
+    pub fn extend_from(&mut self, src: &Vec3s, range: std::ops::Range<usize>) {
+        assert!(range.end <= src.len, "lanes {range:?} of {}", src.len);
+        if self.len % PACKET == 0 && range.start % PACKET == 0 {
+            let packets = &src.packets[range.start / PACKET..range.end.div_ceil(PACKET)];
+            self.packets.extend_from_slice(packets);
+            self.len += range.len();
+        } else {
+            for lane in range {
+                self.push(src.at(lane));
+            }
+        }
+    }
+
+    /// The packets: lane `l` is `packets()[l / PACKET][axis][l % PACKET]`.
+    #[inline]
+    pub fn packets(&self) -> &[Packet] {
+        &self.packets
+    }
+
+    /// Every lane, in order.
+    pub fn iter(&self) -> impl Iterator<Item = Vec3> + '_ {
+        (0..self.len).map(|lane| self.at(lane))
+    }
+}
+
 /// The rays of a chunk, one entry per lane.
 #[derive(Clone, Debug, Default)]
 pub struct Rays {
     /// Ray origins.
-    pub origin: Vec<Vec3>,
+    pub origin: Vec3s,
     /// An object index the ray ignores (the convex object it leaves), or `u32::MAX`.
     pub skip: Vec<u32>,
     /// Unit directions.
-    pub dir: Vec<Vec3>,
+    pub dir: Vec3s,
     /// Throughput: what this ray's colour is multiplied by before it reaches its pixel.
     pub weight: Vec<Vec3>,
     /// Pixel index inside the tile.
@@ -49,9 +165,9 @@ impl Rays {
     /// An empty chunk with room for `n` lanes.
     pub fn with_capacity(n: usize) -> Rays {
         Rays {
-            origin: Vec::with_capacity(n),
+            origin: Vec3s::with_capacity(n),
             skip: Vec::with_capacity(n),
-            dir: Vec::with_capacity(n),
+            dir: Vec3s::with_capacity(n),
             weight: Vec::with_capacity(n),
             pixel: Vec::with_capacity(n),
             depth: Vec::with_capacity(n),
@@ -73,9 +189,9 @@ impl Rays {
     /// Replaces the lanes with `src`'s lanes `range`, reusing this chunk's capacity.
     pub fn copy_from(&mut self, src: &Rays, range: std::ops::Range<usize>) {
         self.clear();
-        self.origin.extend_from_slice(&src.origin[range.clone()]);
+        self.origin.extend_from(&src.origin, range.clone());
         self.skip.extend_from_slice(&src.skip[range.clone()]);
-        self.dir.extend_from_slice(&src.dir[range.clone()]);
+        self.dir.extend_from(&src.dir, range.clone());
         self.weight.extend_from_slice(&src.weight[range.clone()]);
         self.pixel.extend_from_slice(&src.pixel[range.clone()]);
         self.depth.extend_from_slice(&src.depth[range.clone()]);
@@ -103,7 +219,7 @@ pub struct Hits {
     /// Distance along the ray.
     pub t: Vec<f32>,
     /// Hit point in world space.
-    pub point: Vec<Vec3>,
+    pub point: Vec3s,
     /// Hit point in the object's own space (for patterns and texture coordinates).
     pub local: Vec<Vec3>,
     /// Texture coordinates interpolated from a mesh's vertices (zero for other shapes, whose
@@ -111,10 +227,10 @@ pub struct Hits {
     pub uv: Vec<glam::Vec2>,
     /// Unit outward geometric normal (the side the shape calls outside): decides front and back
     /// and where secondary rays start.
-    pub normal: Vec<Vec3>,
+    pub normal: Vec3s,
     /// Unit outward shading normal: interpolated from the vertex normals on smooth meshes (on
     /// the geometric normal's side), else the geometric normal. Terms shade with it.
-    pub shading: Vec<Vec3>,
+    pub shading: Vec3s,
     /// A bound on the hit point's distance from the true surface (world units, along `normal`).
     pub error: Vec<f32>,
     /// Whether the ray arrived from outside (`normal · dir < 0`, geometric normal).
@@ -167,9 +283,9 @@ impl Hits {
 
     /// The shading normal facing the incoming ray (the outward one turned round on a back-face
     /// hit).
-    #[inline]
+    #[inline(always)]
     pub fn facing_normal(&self, lane: usize) -> Vec3 {
-        if self.front[lane] { self.shading[lane] } else { -self.shading[lane] }
+        if self.front[lane] { self.shading.at(lane) } else { -self.shading.at(lane) }
     }
 }
 
@@ -200,5 +316,47 @@ impl LightSamples {
     pub fn lane(&self, lane: usize) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
         let r = lane * self.lights..(lane + 1) * self.lights;
         self.w[r.clone()].iter().copied().zip(self.incoming[r].iter().copied())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{PACKET, Vec3, Vec3s};
+
+    fn lane(i: usize) -> Vec3 {
+        Vec3::new(i as f32, -(i as f32), 0.5 * i as f32)
+    }
+
+    #[test]
+    fn lanes_keep_their_vectors_across_packets_whatever_the_way_in() {
+        let mut v = Vec3s::default();
+        for i in 0..29 {
+            v.push(lane(i));
+        }
+        assert_eq!(v.len(), 29);
+        assert_eq!(v.packets().len(), 29usize.div_ceil(PACKET));
+        assert!(v.iter().enumerate().all(|(i, got)| got == lane(i)));
+        // Copies from a packet's start (whole packets) and from inside one (lane by lane),
+        // onto an empty column and onto one that ends inside a packet.
+        for (range, before) in [(8..29, 0), (3..20, 0), (16..17, 5), (0..29, 3)] {
+            let mut w = Vec3s::default();
+            for i in 0..before {
+                w.push(lane(100 + i));
+            }
+            w.extend_from(&v, range.clone());
+            assert_eq!(w.len(), before + range.len());
+            let want: Vec<Vec3> = (0..before).map(|i| lane(100 + i)).chain(range.map(lane)).collect();
+            assert_eq!(w.iter().collect::<Vec<_>>(), want);
+        }
+        // Growing fills new lanes, shrinking keeps the first ones, `set` writes one lane.
+        v.resize(40, Vec3::ONE);
+        assert!((0..29).all(|i| v.at(i) == lane(i)) && (29..40).all(|i| v.at(i) == Vec3::ONE));
+        v.resize(10, Vec3::ZERO);
+        v.set(9, Vec3::X);
+        assert_eq!(v.iter().collect::<Vec<_>>(), (0..9).map(lane).chain([Vec3::X]).collect::<Vec<_>>());
+        v.fill(Vec3::Y);
+        assert!(v.iter().all(|got| got == Vec3::Y) && v.len() == 10);
+        v.clear();
+        assert!(v.is_empty() && v.packets().is_empty());
     }
 }

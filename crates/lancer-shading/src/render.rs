@@ -6,7 +6,7 @@ use glam::Vec3;
 use lancer_core::frame::BACKGROUND;
 use lancer_core::rays::{CHUNK_LANES, CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
 use lancer_core::{Camera, Frame, ImageSettings, Layer, RenderStats, Scene};
-use lancer_shapes::{Hit, NO_SKIP};
+use lancer_shapes::{Hit, Lines, NO_SKIP};
 use rayon::prelude::*;
 
 use crate::shadow::BLOCK;
@@ -464,20 +464,21 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
     let objects = &ctx.geometry.objects;
     for (rays, hits) in world.query_mut::<(&Rays, &mut Hits)>() {
         let found = |lane: usize, i: u32, c: &lancer_shapes::ShapeHit| {
-            let h = objects[i as usize].hit(i, rays.origin[lane], rays.dir[lane], c);
+            let h = objects[i as usize].hit(i, rays.origin.at(lane), rays.dir.at(lane), c);
             hits.t[lane] = h.t;
-            hits.point[lane] = h.point;
+            hits.point.set(lane, h.point);
             hits.local[lane] = h.local;
             hits.uv[lane] = h.uv;
-            hits.normal[lane] = h.normal;
-            hits.shading[lane] = h.shading;
+            hits.normal.set(lane, h.normal);
+            hits.shading.set(lane, h.shading);
             hits.error[lane] = h.error;
             hits.front[lane] = h.front;
             hits.object[lane] = h.object;
             hits.material[lane] = objects[i as usize].material;
             hits.color[lane] = ctx.surface_color(i, h.local, h.uv);
         };
-        ctx.geometry.closest_each(&rays.origin, &rays.skip, &rays.dir, |_| f32::INFINITY, found);
+        let lines = Lines { origin: rays.origin.packets(), dir: rays.dir.packets(), skip: &rays.skip };
+        ctx.geometry.closest_each(lines, |_| f32::INFINITY, found);
     }
 }
 
@@ -508,7 +509,7 @@ fn visibility_system(
                         continue;
                     }
                     let slot = lane * ctx.lights.len() + k;
-                    let Some(w) = (light.at - hits.point[lane]).try_normalize() else {
+                    let Some(w) = (light.at - hits.point.at(lane)).try_normalize() else {
                         continue;
                     };
                     samples.w[slot] = w;

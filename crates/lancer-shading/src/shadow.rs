@@ -4,7 +4,7 @@ use std::cell::Cell;
 
 use glam::Vec3;
 use lancer_core::Light;
-use lancer_shapes::{Hit, Origin};
+use lancer_shapes::{Hit, Lines, Origin};
 
 use crate::ShadeContext;
 
@@ -46,35 +46,27 @@ impl<'a> ShadowContext<'a> {
         self.geometry.any_hit(self.geometry.spawn(at, dir), dir, dist)
     }
 
-    /// The first object on each segment from `origin[i]` (ignoring `skip[i]`) along the unit
-    /// `dir[i]` within `0 < t < left(i)`: [`ShadowContext::occluder`] for many shadow rays at
-    /// once (each ray gets the answer it would get alone), `found(i, object, crossing)` for each
-    /// one that meets something, counted in [`ShadowContext::rays`].
+    /// The first object on each segment of `lines` (ray `i` from its origin, ignoring its
+    /// `skip`, along its unit direction) within `0 < t < left(i)`: [`ShadowContext::occluder`]
+    /// for many shadow rays at once (each ray gets the answer it would get alone),
+    /// `found(i, object, crossing)` for each one that meets something, counted in
+    /// [`ShadowContext::rays`].
     pub fn occluders(
         &self,
-        origin: &[Vec3],
-        skip: &[u32],
-        dir: &[Vec3],
+        lines: Lines<'_>,
         left: impl Fn(usize) -> f32,
         found: impl FnMut(usize, u32, &lancer_shapes::ShapeHit),
     ) {
-        self.rays.set(self.rays.get() + origin.len() as u64);
-        self.geometry.closest_each(origin, skip, dir, left, found);
+        self.rays.set(self.rays.get() + lines.len() as u64);
+        self.geometry.closest_each(lines, left, found);
     }
 
-    /// [`ShadowContext::blocked`] for many shadow rays at once: `blocked(i)` for each segment
-    /// from `origin[i]` (ignoring `skip[i]`) along the unit `dir[i]` within `0 < t < dist(i)`
-    /// that meets an object, counted in [`ShadowContext::rays`].
-    pub fn blocked_each(
-        &self,
-        origin: &[Vec3],
-        skip: &[u32],
-        dir: &[Vec3],
-        dist: impl Fn(usize) -> f32,
-        blocked: impl FnMut(usize),
-    ) {
-        self.rays.set(self.rays.get() + origin.len() as u64);
-        self.geometry.any_each(origin, skip, dir, dist, blocked);
+    /// [`ShadowContext::blocked`] for many shadow rays at once: `blocked(i)` for each segment of
+    /// `lines` within `0 < t < dist(i)` that meets an object, counted in
+    /// [`ShadowContext::rays`].
+    pub fn blocked_each(&self, lines: Lines<'_>, dist: impl Fn(usize) -> f32, blocked: impl FnMut(usize)) {
+        self.rays.set(self.rays.get() + lines.len() as u64);
+        self.geometry.any_each(lines, dist, blocked);
     }
 
     /// How many shadow rays were traced through this context.

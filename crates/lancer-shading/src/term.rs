@@ -66,10 +66,10 @@ impl ShadeContext<'_> {
         Hit {
             t: hits.t[lane],
             object: hits.object[lane],
-            point: hits.point[lane],
+            point: hits.point.at(lane),
             local: hits.local[lane],
-            normal: hits.normal[lane],
-            shading: hits.shading[lane],
+            normal: hits.normal.at(lane),
+            shading: hits.shading.at(lane),
             uv: hits.uv[lane],
             error: hits.error[lane],
             front: hits.front[lane],
@@ -249,7 +249,7 @@ pub fn lit_by<'a>(chunk: &Chunk<'a>, lane: usize, n: Vec3) -> impl Iterator<Item
 /// The point and surface normal terms shade with: the normal faces the incoming ray.
 #[inline]
 pub(crate) fn facing(chunk: &Chunk<'_>, lane: usize) -> (Vec3, Vec3) {
-    (chunk.hits.point[lane], chunk.hits.facing_normal(lane))
+    (chunk.hits.point.at(lane), chunk.hits.facing_normal(lane))
 }
 
 /// The mirror direction of the ray `u` at `hit`: `u − 2 (N·u) N` about the shading normal, or

@@ -178,6 +178,7 @@ impl Object {
     }
 
     /// The world-space hit record of the crossing `c` of the world ray `o + t d`.
+    #[inline(always)]
     pub fn hit(&self, index: u32, o: Vec3, d: Vec3, c: &ShapeHit) -> Hit {
         let describe = |point: Vec3, local: Vec3, normal: Vec3, shading: Vec3, uv: Vec2, error: f32| Hit {
             t: c.t,
@@ -310,6 +311,59 @@ impl Origin {
     }
 }
 
+/// Eight rays' origins or directions axis by axis, `[[x; 8], [y; 8], [z; 8]]`: how [`Lines`]
+/// holds them, so a SIMD group of rays loads an axis at once.
+pub type Packet = [[f32; 8]; 3];
+
+/// Many rays at once: origins and unit directions eight to a [`Packet`] (ray `i` is lane
+/// `i % 8` of packet `i / 8`; lanes past the last ray mean nothing), and the object each ray
+/// ignores. There is one `skip` per ray, and packets enough for them.
+#[derive(Clone, Copy, Debug)]
+pub struct Lines<'a> {
+    /// Origins.
+    pub origin: &'a [Packet],
+    /// Unit directions.
+    pub dir: &'a [Packet],
+    /// The object each ray ignores, or [`NO_SKIP`].
+    pub skip: &'a [u32],
+}
+
+impl<'a> Lines<'a> {
+    /// Number of rays.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.skip.len()
+    }
+
+    /// Whether there is no ray.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.skip.is_empty()
+    }
+
+    /// The origin of ray `lane`.
+    #[inline(always)]
+    pub fn origin(&self, lane: usize) -> Vec3 {
+        let (p, k) = (&self.origin[lane / 8], lane % 8);
+        Vec3::new(p[0][k], p[1][k], p[2][k])
+    }
+
+    /// The direction of ray `lane`.
+    #[inline(always)]
+    pub fn dir(&self, lane: usize) -> Vec3 {
+        let (p, k) = (&self.dir[lane / 8], lane % 8);
+        Vec3::new(p[0][k], p[1][k], p[2][k])
+    }
+
+    /// The rays `range`, which starts at a packet's first ray.
+    #[inline]
+    pub fn range(&self, range: std::ops::Range<usize>) -> Lines<'a> {
+        assert!(range.start % 8 == 0, "rays {range:?} do not start a packet");
+        let packets = range.start / 8..range.end.div_ceil(8);
+        Lines { origin: &self.origin[packets.clone()], dir: &self.dir[packets], skip: &self.skip[range] }
+    }
+}
+
 /// How many times the hit point's error bound a secondary ray's origin moves off the surface:
 /// the bound covers the point; the margin covers the rounding of the offset itself and of the
 /// next intersection test's transform into object space.
@@ -410,52 +464,45 @@ impl Geometry {
     }
 
     /// [`Geometry::closest`] with `tmin = 0` for many rays at once: for each ray `lane` of
-    /// `origin`, `skip` and `dir` (the same length), `found(lane, object, crossing)` with its
-    /// closest crossing within `0 < t < tmax(lane)`, if it has one, in lane order. A small scene
-    /// tests its objects against blocks of rays, a SIMD group at a time; a larger one walks the BVH
-    /// for each ray. Either way a ray's answer depends only on the ray.
+    /// `lines`, `found(lane, object, crossing)` with its closest crossing within
+    /// `0 < t < tmax(lane)`, if it has one, in lane order. A small scene tests its objects
+    /// against blocks of rays, a SIMD group at a time; a larger one walks the BVH for each ray.
+    /// Either way a ray's answer depends only on the ray.
     pub fn closest_each(
         &self,
-        origin: &[Vec3],
-        skip: &[u32],
-        dir: &[Vec3],
+        lines: Lines<'_>,
         tmax: impl Fn(usize) -> f32,
         mut found: impl FnMut(usize, u32, &ShapeHit),
     ) {
         if self.stream.is_empty() {
-            for lane in 0..origin.len() {
-                let from = Origin { point: origin[lane], skip: skip[lane] };
-                if let Some((i, c)) = self.closest(from, dir[lane], 0.0, tmax(lane)) {
+            for lane in 0..lines.len() {
+                let from = Origin { point: lines.origin(lane), skip: lines.skip[lane] };
+                if let Some((i, c)) = self.closest(from, lines.dir(lane), 0.0, tmax(lane)) {
                     found(lane, i, &c);
                 }
             }
         } else {
-            crate::stream::closest_each(&self.objects, &self.stream, origin, skip, dir, tmax, found);
+            crate::stream::closest_each(&self.objects, &self.stream, lines, tmax, found);
         }
     }
 
     /// [`Geometry::any_hit`] for many rays at once: `blocked(lane)` for each ray `lane` of
-    /// `origin`, `skip` and `dir` that meets an object within `0 < t < tmax(lane)`, in lane
-    /// order. A small scene finds them object by object over blocks of rays (a ray meets an
-    /// object exactly where it has a closest crossing); a larger one asks the BVH per ray.
-    pub fn any_each(
-        &self,
-        origin: &[Vec3],
-        skip: &[u32],
-        dir: &[Vec3],
-        tmax: impl Fn(usize) -> f32,
-        mut blocked: impl FnMut(usize),
-    ) {
+    /// `lines` that meets an object within `0 < t < tmax(lane)`, in lane order. A small scene
+    /// finds them object by object over blocks of rays (a ray meets an object exactly where it
+    /// has a closest crossing); a larger one asks the BVH per ray.
+    pub fn any_each(&self, lines: Lines<'_>, tmax: impl Fn(usize) -> f32, mut blocked: impl FnMut(usize)) {
         if self.stream.is_empty() {
-            for lane in 0..origin.len() {
-                if self.any_hit(Origin { point: origin[lane], skip: skip[lane] }, dir[lane], tmax(lane)) {
+            for lane in 0..lines.len() {
+                if self.any_hit(
+                    Origin { point: lines.origin(lane), skip: lines.skip[lane] },
+                    lines.dir(lane),
+                    tmax(lane),
+                ) {
                     blocked(lane);
                 }
             }
         } else {
-            crate::stream::closest_each(&self.objects, &self.stream, origin, skip, dir, tmax, |lane, _, _| {
-                blocked(lane)
-            });
+            crate::stream::closest_each(&self.objects, &self.stream, lines, tmax, |lane, _, _| blocked(lane));
         }
     }
 

@@ -18,7 +18,7 @@ mod torus;
 pub use aabb::Aabb;
 pub use bvh::Bvh;
 pub use csg::{Csg, CsgNode, CsgOp, Span, combine};
-pub use geometry::{Geometry, Hit, NO_SKIP, Object, Origin, invertible};
+pub use geometry::{Geometry, Hit, Lines, NO_SKIP, Object, Origin, Packet, invertible};
 pub use mesh::{Mesh, MeshError};
 pub use shape::{LocalSurface, Shape, ShapeHit};
 
@@ -35,5 +35,18 @@ pub(crate) mod testing {
             state ^= state << 17;
             lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
         }
+    }
+
+    /// `v` as packets, for [`crate::Lines`].
+    pub(crate) fn packets(v: &[glam::Vec3]) -> Vec<crate::Packet> {
+        v.chunks(8)
+            .map(|c| {
+                let mut p = [[0.0; 8]; 3];
+                for (k, v) in c.iter().enumerate() {
+                    (p[0][k], p[1][k], p[2][k]) = (v.x, v.y, v.z);
+                }
+                p
+            })
+            .collect()
     }
 }

@@ -11,7 +11,7 @@
 use glam::Vec3;
 use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, f32x8, i32x8};
 
-use crate::{Aabb, Object, ShapeHit};
+use crate::{Aabb, Lines, Object, ShapeHit};
 
 /// Rays per SIMD group: eight, an AVX register (two SSE registers in the baseline x86-64
 /// build, with the same results lane by lane).
@@ -128,15 +128,12 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<Box<Block>> = std::cell::RefCell::new(Box::new(Block::new()));
 }
 
-/// For each ray `lane` of `origin`, `skip`, `dir` (the same length), the closest crossing with
-/// `0 < t < tmax(lane)` of any object but `skip[lane]`: `found(lane, object, crossing)` for each
-/// ray that has one, in lane order.
+/// For each ray `lane` of `lines`, the closest crossing with `0 < t < tmax(lane)` of any object
+/// but its `skip`: `found(lane, object, crossing)` for each ray that has one, in lane order.
 pub(crate) fn closest_each(
     objects: &[Object],
     items: &[Item],
-    origin: &[Vec3],
-    skip: &[u32],
-    dir: &[Vec3],
+    lines: Lines<'_>,
     tmax: impl Fn(usize) -> f32,
     mut found: impl FnMut(usize, u32, &ShapeHit),
 ) {
@@ -153,9 +150,9 @@ pub(crate) fn closest_each(
                 &mut own
             }
         };
-        for start in (0..origin.len()).step_by(BLOCK) {
-            let n = (origin.len() - start).min(BLOCK);
-            block.load(&origin[start..start + n], &skip[start..start + n], &dir[start..start + n], |l| tmax(start + l));
+        for start in (0..lines.len()).step_by(BLOCK) {
+            let n = (lines.len() - start).min(BLOCK);
+            block.load(lines.range(start..start + n), |l| tmax(start + l));
             for item in items {
                 block.test(objects, item, n);
             }
@@ -166,6 +163,12 @@ pub(crate) fn closest_each(
             }
         }
     });
+}
+
+/// `if a > b { a } else { b }` lane by lane: glam's `max_element` step, NaN included.
+#[inline(always)]
+fn gt_max(a: Fx, b: Fx) -> Fx {
+    a.cmp_gt(b).blend(a, b)
 }
 
 impl Block {
@@ -186,30 +189,32 @@ impl Block {
         }
     }
 
-    fn load(&mut self, origin: &[Vec3], skip: &[u32], dir: &[Vec3], tmax: impl Fn(usize) -> f32) {
-        let n = origin.len();
+    /// Loads the rays of `lines` (at most [`BLOCK`]) with their limits, axis columns eight lanes
+    /// at a time.
+    fn load(&mut self, lines: Lines<'_>, tmax: impl Fn(usize) -> f32) {
+        let n = lines.len();
         for g in 0..n.div_ceil(W) {
-            // Lanes past the end repeat the first ray, which they never hit anything of. Each
-            // group is gathered into plain arrays and stored whole (not lane by lane, which
-            // would make every later read of the group wait for separate stores).
-            let (mut o, mut d) = ([[0.0f32; W]; 3], [[0.0f32; W]; 3]);
-            let (mut limit, mut skipped, mut pad) = ([0.0f32; W], [0i32; W], [0.0f32; W]);
-            for k in 0..W {
-                let lane = g * W + k;
-                let (ok, dk, tk, sk) = if lane < n {
-                    (origin[lane], dir[lane], tmax(lane), skip[lane])
-                } else {
-                    (origin[0], dir[0], -1.0, NONE)
-                };
-                for axis in 0..3 {
-                    (o[axis][k], d[axis][k]) = (ok[axis], dk[axis]);
-                }
-                (limit[k], skipped[k], pad[k]) = (tk, sk as i32, ok.abs().max_element() * PAD);
-            }
+            let at = g * W;
+            let (o, d) = (&lines.origin[g], &lines.dir[g]);
             for axis in 0..3 {
                 (self.o[axis][g], self.d[axis][g]) = (Fx::new(o[axis]), Fx::new(d[axis]));
             }
-            (self.tmax[g], self.skip[g], self.pad[g]) = (Fx::new(limit), Ix::new(skipped), Fx::new(pad));
+            if at + W > n {
+                // Lanes past the end repeat the first ray, which they never hit anything of.
+                let (first_o, first_d) = (lines.origin(0), lines.dir(0));
+                let past = Fx::new(std::array::from_fn(|k| if at + k < n { 0.0 } else { f32::from_bits(u32::MAX) }));
+                for axis in 0..3 {
+                    self.o[axis][g] = past.blend(Fx::splat(first_o[axis]), self.o[axis][g]);
+                    self.d[axis][g] = past.blend(Fx::splat(first_d[axis]), self.d[axis][g]);
+                }
+            }
+            let (mut limit, mut skipped) = ([-1.0f32; W], [NONE as i32; W]);
+            for k in 0..W.min(n - at) {
+                (limit[k], skipped[k]) = (tmax(at + k), lines.skip[at + k] as i32);
+            }
+            (self.tmax[g], self.skip[g]) = (Fx::new(limit), Ix::new(skipped));
+            let [x, y, z] = [self.o[0][g].abs(), self.o[1][g].abs(), self.o[2][g].abs()];
+            self.pad[g] = gt_max(x, gt_max(y, z)) * Fx::splat(PAD);
         }
         self.slabs_ready = false;
         self.best[..n].fill(NONE);
@@ -475,7 +480,7 @@ mod tests {
     use glam::{Affine3A, Quat, Vec3};
 
     use super::{BLOCK, MOST_OBJECTS};
-    use crate::{Csg, CsgNode, CsgOp, Geometry, NO_SKIP, Object, Shape, ShapeHit};
+    use crate::{Csg, CsgNode, CsgOp, Geometry, Lines, NO_SKIP, Object, Shape, ShapeHit};
 
     /// A scene of `count` objects of every kind (a mesh too), `size` across, `far` away from
     /// the world's origin.
@@ -598,18 +603,17 @@ mod tests {
                 (dir[17], dir[33], dir[49]) = (Vec3::ZERO, Vec3::NAN, dir[49] * 1e-18);
             }
             let mut each = vec![None; origin.len()];
-            g.closest_each(&origin, &skip, &dir, |l| limit[l], |l, i, c| each[l] = Some((i, *c)));
+            let (o_packets, d_packets) = (crate::testing::packets(&origin), crate::testing::packets(&dir));
+            let lines = Lines { origin: &o_packets, dir: &d_packets, skip: &skip };
+            g.closest_each(lines, |l| limit[l], |l, i, c| each[l] = Some((i, *c)));
             for l in 0..origin.len() {
                 let truth = every_object(&g, origin[l], dir[l], skip[l], limit[l]);
                 assert_eq!(each[l], truth, "case {case}, ray {l}: {} + t {}", origin[l], dir[l]);
                 let mut single = None;
-                g.closest_each(
-                    &origin[l..=l],
-                    &skip[l..=l],
-                    &dir[l..=l],
-                    |_| limit[l],
-                    |_, i, c| single = Some((i, *c)),
-                );
+                let (o_alone, d_alone) =
+                    (crate::testing::packets(&origin[l..=l]), crate::testing::packets(&dir[l..=l]));
+                let alone = Lines { origin: &o_alone, dir: &d_alone, skip: &skip[l..=l] };
+                g.closest_each(alone, |_| limit[l], |_, i, c| single = Some((i, *c)));
                 assert_eq!(single, truth, "case {case}, ray {l} alone");
                 hits += usize::from(truth.is_some());
             }
@@ -636,7 +640,9 @@ mod tests {
             let dir: Vec<Vec3> =
                 (0..lanes).map(|_| towards + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * width).collect();
             let mut block = super::Block::new();
-            block.load(&origin, &[super::NONE; BLOCK][..lanes], &dir, |_| f32::INFINITY);
+            let (o_packets, d_packets) = (crate::testing::packets(&origin), crate::testing::packets(&dir));
+            let lines = Lines { origin: &o_packets, dir: &d_packets, skip: &[super::NONE; BLOCK][..lanes] };
+            block.load(lines, |_| f32::INFINITY);
             let Some(cone) = block.cone else { continue };
             for _ in 0..20 {
                 // A ball on one of the rays, just touching it or clear of all of them.

@@ -11,7 +11,7 @@
 
 use glam::Vec3;
 use lancer_core::Light;
-use lancer_shapes::Hit;
+use lancer_shapes::{Hit, Lines};
 
 use crate::shadow::BLOCK;
 use crate::{Params, ShadowContext, ShadowModel, ShadowSpec};
@@ -34,7 +34,8 @@ impl ShadowModel for Hard {
 
     fn transmittance_each(&self, ctx: &ShadowContext<'_>, hits: &[Hit], light: &Light, out: &mut [Vec3]) {
         for (hits, out) in hits.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
-            let (mut origin, mut skip, mut dir) = ([Vec3::ZERO; BLOCK], [0u32; BLOCK], [Vec3::ZERO; BLOCK]);
+            let (mut origin, mut skip, mut dir) =
+                ([[[0.0f32; 8]; 3]; BLOCK / 8], [0u32; BLOCK], [[[0.0f32; 8]; 3]; BLOCK / 8]);
             let (mut dist, mut which) = ([0.0f32; BLOCK], [0usize; BLOCK]);
             let mut rays = 0;
             for (i, (at, out)) in hits.iter().zip(out.iter_mut()).enumerate() {
@@ -42,10 +43,15 @@ impl ShadowModel for Hard {
                 // The shadow ray `blocked` traces.
                 let Some((d, far)) = ctx.toward(at, light.at) else { continue };
                 let from = ctx.geometry.spawn(at, d);
-                (origin[rays], skip[rays], dir[rays], dist[rays], which[rays]) = (from.point, from.skip, d, far, i);
+                for axis in 0..3 {
+                    (origin[rays / 8][axis][rays % 8], dir[rays / 8][axis][rays % 8]) = (from.point[axis], d[axis]);
+                }
+                (skip[rays], dist[rays], which[rays]) = (from.skip, far, i);
                 rays += 1;
             }
-            ctx.blocked_each(&origin[..rays], &skip[..rays], &dir[..rays], |r| dist[r], |r| out[which[r]] = Vec3::ZERO);
+            let packets = rays.div_ceil(8);
+            let lines = Lines { origin: &origin[..packets], dir: &dir[..packets], skip: &skip[..rays] };
+            ctx.blocked_each(lines, |r| dist[r], |r| out[which[r]] = Vec3::ZERO);
         }
     }
 }

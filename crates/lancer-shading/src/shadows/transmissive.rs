@@ -12,7 +12,7 @@
 
 use glam::Vec3;
 use lancer_core::Light;
-use lancer_shapes::Hit;
+use lancer_shapes::{Hit, Lines, Packet};
 
 use crate::shadow::BLOCK;
 use crate::{ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
@@ -87,9 +87,9 @@ pub(crate) fn through_each(
 /// target), each hit's ray (an index into them) or what it gets without one, and what each ray
 /// meets first.
 struct Columns {
-    origin: [Vec3; BLOCK],
+    origin: [Packet; BLOCK / 8],
     skip: [u32; BLOCK],
-    dir: [Vec3; BLOCK],
+    dir: [Packet; BLOCK / 8],
     left: [f32; BLOCK],
     dist: [f32; BLOCK],
     ray: [Result<usize, Option<Vec3>>; BLOCK],
@@ -99,9 +99,9 @@ struct Columns {
 impl Columns {
     fn new() -> Columns {
         Columns {
-            origin: [Vec3::ZERO; BLOCK],
+            origin: [[[0.0; 8]; 3]; BLOCK / 8],
             skip: [0; BLOCK],
-            dir: [Vec3::ZERO; BLOCK],
+            dir: [[[0.0; 8]; 3]; BLOCK / 8],
             left: [0.0; BLOCK],
             dist: [0.0; BLOCK],
             ray: [Err(None); BLOCK],
@@ -137,18 +137,17 @@ fn through_blocks(
                 ray[i] = Err(Some(Vec3::ONE));
                 continue;
             }
-            (origin[rays], skip[rays], dir[rays], left[rays], dist[rays]) = (from.point, from.skip, d, l, far);
+            for axis in 0..3 {
+                (origin[rays / 8][axis][rays % 8], dir[rays / 8][axis][rays % 8]) = (from.point[axis], d[axis]);
+            }
+            (skip[rays], left[rays], dist[rays]) = (from.skip, l, far);
             ray[i] = Ok(rays);
             rays += 1;
         }
         first[..rays].fill(None);
-        ctx.occluders(
-            &origin[..rays],
-            &skip[..rays],
-            &dir[..rays],
-            |r| left[r],
-            |r, object, c| first[r] = Some((object, *c)),
-        );
+        let packets = rays.div_ceil(8);
+        let lines = Lines { origin: &origin[..packets], dir: &dir[..packets], skip: &skip[..rays] };
+        ctx.occluders(lines, |r| left[r], |r, object, c| first[r] = Some((object, *c)));
         for (i, at) in hits.iter().enumerate() {
             // What `onward` gives for a first stretch that meets nothing (all of the light) or an
             // opaque object (none), without starting its walk.
@@ -157,7 +156,10 @@ fn through_blocks(
                 Ok(r) => Some(match first[r] {
                     None => Vec3::ONE,
                     Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
-                    crossing => onward(ctx, at, dir[r], dist[r], tint, Some(crossing)),
+                    crossing => {
+                        let d = Vec3::new(dir[r / 8][0][r % 8], dir[r / 8][1][r % 8], dir[r / 8][2][r % 8]);
+                        onward(ctx, at, d, dist[r], tint, Some(crossing))
+                    }
                 }),
             };
             done(start + i, light);

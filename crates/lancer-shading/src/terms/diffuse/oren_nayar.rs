@@ -66,7 +66,7 @@ impl Term for OrenNayar {
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let (_, n) = facing(&chunk, lane);
-        let v = -chunk.rays.dir[lane];
+        let v = -chunk.rays.dir.at(lane);
         let mut notes = vec![
             Note::number("diff", m.diff),
             Note::vector("Col_Ω", ctx.color(chunk.hits, lane)),
@@ -91,7 +91,7 @@ impl Term for OrenNayar {
                 continue;
             }
             let (_, n) = facing(&chunk, lane);
-            let v = -chunk.rays.dir[lane];
+            let v = -chunk.rays.dir.at(lane);
             let sum = sum_lights(&chunk, lane, n, |nw, w| nw * self.factor(n, w, v, nw));
             out.add(lane, m.diff * ctx.color(chunk.hits, lane) * sum);
         }

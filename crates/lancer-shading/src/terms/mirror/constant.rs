@@ -36,7 +36,7 @@ impl Term for Mirror {
         let hit = ctx.hit(chunk.hits, lane);
         vec![
             Note::number("spec (weight of R_r)", m.spec),
-            Note::vector("u_r = u − 2(N·u)N", crate::mirror_direction(&hit, chunk.rays.dir[lane])),
+            Note::vector("u_r = u − 2(N·u)N", crate::mirror_direction(&hit, chunk.rays.dir.at(lane))),
         ]
     }
 
@@ -51,7 +51,7 @@ impl Term for Mirror {
                 continue;
             }
             let hit = ctx.hit(chunk.hits, lane);
-            let u_r = crate::mirror_direction(&hit, chunk.rays.dir[lane]);
+            let u_r = crate::mirror_direction(&hit, chunk.rays.dir.at(lane));
             let from = ctx.geometry.spawn(&hit, u_r);
             out.spawn(lane, from, u_r, Vec3::splat(m.spec));
         }

@@ -45,7 +45,7 @@ impl Term for Schlick {
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let (_, n) = facing(&chunk, lane);
-        let u = chunk.rays.dir[lane];
+        let u = chunk.rays.dir.at(lane);
         let f0 = self.f0.unwrap_or_else(|| f0_from_index(m.n));
         let hit = ctx.hit(chunk.hits, lane);
         vec![
@@ -67,7 +67,7 @@ impl Term for Schlick {
                 continue;
             }
             let (_, n) = facing(&chunk, lane);
-            let u = chunk.rays.dir[lane];
+            let u = chunk.rays.dir.at(lane);
             let f = schlick(n.dot(u), self.f0.unwrap_or_else(|| f0_from_index(m.n)));
             let hit = ctx.hit(chunk.hits, lane);
             let u_r = crate::mirror_direction(&hit, u);

@@ -59,7 +59,7 @@ impl Term for Fresnel {
         }
         let hit = ctx.hit(chunk.hits, lane);
         let (_, n_facing) = facing(&chunk, lane);
-        let u = chunk.rays.dir[lane];
+        let u = chunk.rays.dir.at(lane);
         let (r_in, t_in) = split(n_facing.dot(u), m.n, hit.front);
         notes.push(Note::number("R_in (Fresnel at I)", r_in));
         notes.push(Note::number("T_in = 1 − R_in", t_in));
@@ -83,7 +83,7 @@ impl Term for Fresnel {
             }
             let hit = ctx.hit(chunk.hits, lane);
             let (_, n_facing) = facing(&chunk, lane);
-            let u = chunk.rays.dir[lane];
+            let u = chunk.rays.dir.at(lane);
             let (r_in, t_in) = split(n_facing.dot(u), m.n, hit.front);
             if hit.front && r_in > 0.0 {
                 let u_r = crate::mirror_direction(&hit, u);

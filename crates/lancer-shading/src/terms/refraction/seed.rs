@@ -41,7 +41,7 @@ impl Term for Refraction {
         let m = ctx.material(chunk.hits, lane);
         let mut notes = vec![Note::number("alpha (weight of R_t)", m.alpha), Note::number("n", m.n)];
         if m.alpha > 0.0 {
-            notes.extend(passage_notes(ctx, &ctx.hit(chunk.hits, lane), chunk.rays.dir[lane], m.n));
+            notes.extend(passage_notes(ctx, &ctx.hit(chunk.hits, lane), chunk.rays.dir.at(lane), m.n));
         }
         notes
     }
@@ -57,7 +57,7 @@ impl Term for Refraction {
                 continue;
             }
             let hit = ctx.hit(chunk.hits, lane);
-            if let Some(t) = passage(ctx, &hit, chunk.rays.dir[lane], m.n) {
+            if let Some(t) = passage(ctx, &hit, chunk.rays.dir.at(lane), m.n) {
                 out.spawn(lane, t.from, t.dir, Vec3::splat(m.alpha));
             }
         }

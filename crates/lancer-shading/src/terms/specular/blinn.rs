@@ -36,7 +36,7 @@ impl Term for Blinn {
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let (_, n) = facing(&chunk, lane);
-        let u = chunk.rays.dir[lane];
+        let u = chunk.rays.dir.at(lane);
         let mut notes = vec![Note::number("spec", m.spec), Note::number("shine", m.shine)];
         let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { return notes };
         notes.push(Note::number(if self.exponent.is_some() { "exponent" } else { "exponent 4/(1−shine)" }, e));
@@ -60,7 +60,7 @@ impl Term for Blinn {
             }
             let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { continue };
             let (_, n) = facing(&chunk, lane);
-            let u = chunk.rays.dir[lane];
+            let u = chunk.rays.dir.at(lane);
             let sum = sum_lights(&chunk, lane, n, |_, w| half_vector_lobe(n, w, u, e));
             out.add(lane, m.spec * m.shine * sum);
         }

@@ -39,7 +39,7 @@ impl Term for BlinnNormalized {
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let (_, n) = facing(&chunk, lane);
-        let u = chunk.rays.dir[lane];
+        let u = chunk.rays.dir.at(lane);
         let mut notes = vec![Note::number("spec", m.spec)];
         let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { return notes };
         notes.push(Note::number(if self.exponent.is_some() { "exponent" } else { "exponent 4/(1−shine)" }, e));
@@ -64,7 +64,7 @@ impl Term for BlinnNormalized {
             }
             let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { continue };
             let (_, n) = facing(&chunk, lane);
-            let u = chunk.rays.dir[lane];
+            let u = chunk.rays.dir.at(lane);
             let norm = (e + 8.0) / (8.0 * PI);
             let sum = sum_lights(&chunk, lane, n, |nw, w| norm * half_vector_lobe(n, w, u, e) * nw);
             out.add(lane, m.spec * sum);

@@ -44,7 +44,7 @@ impl Term for Phong {
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {
         let m = ctx.material(chunk.hits, lane);
         let (_, n) = facing(&chunk, lane);
-        let u = chunk.rays.dir[lane];
+        let u = chunk.rays.dir.at(lane);
         let mut notes = vec![Note::number("spec", m.spec), Note::number("shine", m.shine)];
         if m.shine < 1.0 {
             notes.push(Note::number("exponent 1/(1−shine)", 1.0 / (1.0 - m.shine)));
@@ -68,7 +68,7 @@ impl Term for Phong {
                 continue;
             }
             let (_, n) = facing(&chunk, lane);
-            let u = chunk.rays.dir[lane];
+            let u = chunk.rays.dir.at(lane);
             let sum = sum_lights(&chunk, lane, n, |nw, w| phong_factor(m.shine, -u.dot(2.0 * nw * n - w)));
             out.add(lane, m.spec * sum);
         }
