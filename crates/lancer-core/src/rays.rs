@@ -91,7 +91,7 @@ impl Vec3s {
             self.len = n;
             return;
         }
-        while self.len % PACKET != 0 && self.len < n {
+        while !self.len.is_multiple_of(PACKET) && self.len < n {
             self.push(v);
         }
         let whole = [[v.x; PACKET], [v.y; PACKET], [v.z; PACKET]];
@@ -107,7 +107,7 @@ impl Vec3s {
     /// Appends `src`'s lanes `range`: packet by packet where both sides start a packet.
     pub fn extend_from(&mut self, src: &Vec3s, range: std::ops::Range<usize>) {
         assert!(range.end <= src.len, "lanes {range:?} of {}", src.len);
-        if self.len % PACKET == 0 && range.start % PACKET == 0 {
+        if self.len.is_multiple_of(PACKET) && range.start.is_multiple_of(PACKET) {
             let packets = &src.packets[range.start / PACKET..range.end.div_ceil(PACKET)];
             self.packets.extend_from_slice(packets);
             self.len += range.len();

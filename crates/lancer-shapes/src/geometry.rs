@@ -358,7 +358,7 @@ impl<'a> Lines<'a> {
     /// The rays `range`, which starts at a packet's first ray.
     #[inline]
     pub fn range(&self, range: std::ops::Range<usize>) -> Lines<'a> {
-        assert!(range.start % 8 == 0, "rays {range:?} do not start a packet");
+        assert!(range.start.is_multiple_of(8), "rays {range:?} do not start a packet");
         let packets = range.start / 8..range.end.div_ceil(8);
         Lines { origin: &self.origin[packets.clone()], dir: &self.dir[packets], skip: &self.skip[range] }
     }
