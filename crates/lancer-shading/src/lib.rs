@@ -16,6 +16,7 @@ mod shadow;
 pub mod shadows;
 mod term;
 pub mod terms;
+mod visibility;
 
 pub use choice::Choice;
 pub use explain::{HitNode, LightNode, PixelExplanation, RayNode, TermNode, explain_pixel};
@@ -26,5 +27,5 @@ pub use registry::{
     ModelError, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec, WEIGHT, nearest,
 };
 pub use render::{RenderOptions, TILE, WAVE, part_bands, render, render_prepared};
-pub use shadow::{ShadowContext, ShadowModel};
+pub use shadow::{BLOCK, HitBlock, ShadowContext, ShadowModel};
 pub use term::{Chunk, Note, NoteValue, ShadeContext, Term, TermOutput, lit_by, mirror_direction, sum_lights};

@@ -6,10 +6,9 @@ use glam::Vec3;
 use lancer_core::frame::BACKGROUND;
 use lancer_core::rays::{CHUNK_LANES, CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
 use lancer_core::{Camera, Frame, ImageSettings, Layer, RenderStats, Scene};
-use lancer_shapes::{Hit, Lines, NO_SKIP};
+use lancer_shapes::{Lines, NO_SKIP};
 use rayon::prelude::*;
 
-use crate::shadow::BLOCK;
 use crate::{Chunk, Pipeline, PrepareError, Prepared, ShadeContext, ShadowContext, TermOutput, prepare};
 
 /// Height of a tile, in pixels (and of the bands of rows a part render takes, see
@@ -394,7 +393,7 @@ pub(crate) fn render_tile(
             let Scratch { world, next, accum, .. } = scratch;
             trace_system(world, ctx);
             lap.charge(&mut times.trace);
-            visibility_system(world, ctx, &shadow_ctx, pipeline, lit);
+            crate::visibility::visibility_system(world, ctx, &shadow_ctx, pipeline, lit);
             lap.charge(&mut times.visibility);
             if let Some(r) = recorder.as_deref_mut() {
                 r.generation(world, ctx, pipeline, image.background);
@@ -479,52 +478,6 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
         };
         let lines = Lines { origin: rays.origin.packets(), dir: rays.dir.packets(), skip: &rays.skip };
         ctx.geometry.closest_each(lines, |_| f32::INFINITY, found);
-    }
-}
-
-/// For every hit on which some term reads lights ([`crate::Term::reads_lights`]) and every
-/// light: the direction to the light and the light arriving through the pipeline's shadow
-/// model. Lights behind the surface (`N·w <= 0`) send nothing.
-fn visibility_system(
-    world: &mut hecs::World,
-    ctx: &ShadeContext<'_>,
-    shadow_ctx: &ShadowContext<'_>,
-    pipeline: &Pipeline,
-    lit: &[bool],
-) {
-    let shadows = &pipeline.shadows.model;
-    let (mut facing, mut slots) = ([Hit::default(); BLOCK], [0usize; BLOCK]);
-    let mut out = [Vec3::ZERO; BLOCK];
-    for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
-        let n = hits.object.len();
-        // Block by block and light by light, so a shadow model may trace a block's shadow rays
-        // towards one light together.
-        for start in (0..n).step_by(BLOCK) {
-            let lanes = start..(start + BLOCK).min(n);
-            for (k, light) in ctx.lights.iter().enumerate() {
-                // The hits the light reaches the front of, and where their samples go.
-                let mut reached = 0;
-                for lane in lanes.clone() {
-                    if hits.object[lane] == NO_HIT || !lit[hits.material[lane] as usize] {
-                        continue;
-                    }
-                    let slot = lane * ctx.lights.len() + k;
-                    let Some(w) = (light.at - hits.point.at(lane)).try_normalize() else {
-                        continue;
-                    };
-                    samples.w[slot] = w;
-                    if hits.facing_normal(lane).dot(w) <= 0.0 {
-                        continue;
-                    }
-                    (facing[reached], slots[reached]) = (ctx.hit(hits, lane), slot);
-                    reached += 1;
-                }
-                shadows.transmittance_each(shadow_ctx, &facing[..reached], light, &mut out[..reached]);
-                for (slot, through) in slots[..reached].iter().zip(&out[..reached]) {
-                    samples.incoming[*slot] = light.radiance() * *through;
-                }
-            }
-        }
     }
 }
 

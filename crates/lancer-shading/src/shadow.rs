@@ -4,7 +4,8 @@ use std::cell::Cell;
 
 use glam::Vec3;
 use lancer_core::Light;
-use lancer_shapes::{Hit, Lines, Origin};
+use lancer_core::rays::{Hits, PACKET};
+use lancer_shapes::{Hit, Lines, NO_SKIP, Origin, Packet};
 
 use crate::ShadeContext;
 
@@ -86,7 +87,184 @@ impl<'a> ShadowContext<'a> {
 
 /// The most hits the visibility system hands a shadow model at once
 /// ([`ShadowModel::transmittance_each`]), and the block the built-in models trace together.
-pub(crate) const BLOCK: usize = 64;
+pub const BLOCK: usize = 64;
+
+/// Entry `i` is `i`: the map of a block whose rays are all traced, in place.
+const IN_PLACE: [usize; BLOCK] = {
+    let mut map = [0; BLOCK];
+    let mut i = 0;
+    while i < BLOCK {
+        map[i] = i;
+        i += 1;
+    }
+    map
+};
+
+/// Up to [`BLOCK`] hits of a chunk that one light's point may reach, and the straight shadow ray
+/// from each towards that point: where [`lancer_shapes::Geometry::spawn`] starts it and the
+/// object it ignores, its unit direction (exactly [`ShadowContext::toward`]'s), the distance
+/// from the hit point to the light, and what is left of it past the start. The visibility
+/// system makes them eight lanes at a time; [`HitBlock::toward`] makes the same bits one hit
+/// at a time.
+pub struct HitBlock<'a> {
+    hits: &'a Hits,
+    len: usize,
+    pub(crate) lane: [u32; BLOCK],
+    pub(crate) origin: [Packet; BLOCK / PACKET],
+    pub(crate) dir: [Packet; BLOCK / PACKET],
+    pub(crate) skip: [u32; BLOCK],
+    pub(crate) dist: [f32; BLOCK],
+    pub(crate) left: [f32; BLOCK],
+}
+
+impl<'a> HitBlock<'a> {
+    /// An empty block over the hits of a chunk.
+    pub fn empty(hits: &'a Hits) -> HitBlock<'a> {
+        HitBlock {
+            hits,
+            len: 0,
+            lane: [0; BLOCK],
+            origin: [[[0.0; PACKET]; 3]; BLOCK / PACKET],
+            dir: [[[0.0; PACKET]; 3]; BLOCK / PACKET],
+            skip: [NO_SKIP; BLOCK],
+            dist: [0.0; BLOCK],
+            left: [0.0; BLOCK],
+        }
+    }
+
+    /// The hits of `lanes` (at most [`BLOCK`], each with a hit) with their straight rays
+    /// towards `target`, one by one. A hit at the target itself gets no ray: distance and
+    /// length left 0.
+    pub fn toward(ctx: &ShadeContext<'_>, hits: &'a Hits, lanes: &[usize], target: Vec3) -> HitBlock<'a> {
+        assert!(lanes.len() <= BLOCK, "{} hits in a block of {BLOCK}", lanes.len());
+        let mut block = HitBlock::empty(hits);
+        for &lane in lanes {
+            let at = ctx.hit(hits, lane);
+            let d = target - at.point;
+            let dist = d.length();
+            let (from, dir, dist, left) = if dist > 0.0 && dist.is_finite() {
+                let dir = d / dist;
+                let from = ctx.geometry.spawn(&at, dir);
+                (from, dir, dist, dist - (from.point - at.point).dot(dir))
+            } else {
+                (Origin::free(at.point), Vec3::ZERO, 0.0, 0.0)
+            };
+            block.push(lane, from, dir, dist, left);
+        }
+        block
+    }
+
+    /// Appends an entry.
+    #[inline(always)]
+    pub(crate) fn push(&mut self, lane: usize, from: Origin, dir: Vec3, dist: f32, left: f32) {
+        let (i, (p, k)) = (self.len, (self.len / PACKET, self.len % PACKET));
+        for axis in 0..3 {
+            (self.origin[p][axis][k], self.dir[p][axis][k]) = (from.point[axis], dir[axis]);
+        }
+        (self.lane[i], self.skip[i], self.dist[i], self.left[i]) = (lane as u32, from.skip, dist, left);
+        self.len += 1;
+    }
+
+    /// Removes every entry.
+    #[inline]
+    pub(crate) fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Number of hits.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the block has no hit.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Hit `i` ([`ShadeContext::hit`] of its lane).
+    #[inline]
+    pub fn hit(&self, ctx: &ShadeContext<'_>, i: usize) -> Hit {
+        ctx.hit(self.hits, self.lane(i))
+    }
+
+    /// The chunk lane of hit `i`.
+    #[inline]
+    pub fn lane(&self, i: usize) -> usize {
+        assert!(i < self.len, "hit {i} of {}", self.len);
+        self.lane[i] as usize
+    }
+
+    /// The unit direction of hit `i`'s straight ray.
+    #[inline]
+    pub fn dir(&self, i: usize) -> Vec3 {
+        let (p, k) = (&self.dir[i / PACKET], i % PACKET);
+        Vec3::new(p[0][k], p[1][k], p[2][k])
+    }
+
+    /// The distance from hit `i`'s point to the target (0: no ray).
+    #[inline]
+    pub fn dist(&self, i: usize) -> f32 {
+        self.dist[..self.len][i]
+    }
+
+    /// What is left of hit `i`'s straight ray past its start: it reaches the target at this
+    /// distance from its origin.
+    #[inline]
+    pub fn left(&self, i: usize) -> f32 {
+        self.left[..self.len][i]
+    }
+
+    /// The straight rays of the hits `keep` accepts, and the hit each of them is:
+    /// `traced(rays, hit_of_ray)`. When every hit is kept (the usual case) they are the block's
+    /// own columns; else a copy of those kept.
+    pub fn rays_where<R>(&self, keep: impl Fn(usize) -> bool, traced: impl FnOnce(Lines<'_>, &[usize]) -> R) -> R {
+        let n = self.len;
+        if (0..n).all(&keep) {
+            let lines = Lines {
+                origin: &self.origin[..n.div_ceil(PACKET)],
+                dir: &self.dir[..n.div_ceil(PACKET)],
+                skip: &self.skip[..n],
+            };
+            return traced(lines, &IN_PLACE[..n]);
+        }
+        let mut kept = HitBlock::empty(self.hits);
+        let mut which = [0usize; BLOCK];
+        for i in (0..n).filter(|&i| keep(i)) {
+            let from = Origin { point: self.origin_of(i), skip: self.skip[i] };
+            which[kept.len] = i;
+            kept.push(self.lane[i] as usize, from, self.dir(i), self.dist[i], self.left[i]);
+        }
+        let m = kept.len;
+        let lines = Lines {
+            origin: &kept.origin[..m.div_ceil(PACKET)],
+            dir: &kept.dir[..m.div_ceil(PACKET)],
+            skip: &kept.skip[..m],
+        };
+        traced(lines, &which[..m])
+    }
+
+    fn origin_of(&self, i: usize) -> Vec3 {
+        let (p, k) = (&self.origin[i / PACKET], i % PACKET);
+        Vec3::new(p[0][k], p[1][k], p[2][k])
+    }
+}
+
+/// `list` as a chunk's hit columns (material 0, colour black), for tests.
+#[cfg(test)]
+pub(crate) fn columns_of(list: &[Hit]) -> Hits {
+    let mut hits = Hits::default();
+    hits.reset(list.len());
+    for (lane, h) in list.iter().enumerate() {
+        (hits.t[lane], hits.object[lane], hits.local[lane], hits.uv[lane]) = (h.t, h.object, h.local, h.uv);
+        (hits.error[lane], hits.front[lane], hits.material[lane], hits.color[lane]) = (h.error, h.front, 0, Vec3::ZERO);
+        hits.point.set(lane, h.point);
+        hits.normal.set(lane, h.normal);
+        hits.shading.set(lane, h.shading);
+    }
+    hits
+}
 
 /// A shadow model: the fraction (per RGB channel) of a light's colour that reaches a point.
 pub trait ShadowModel: Send + Sync {
@@ -94,13 +272,14 @@ pub trait ShadowModel: Send + Sync {
     /// where [`lancer_shapes::Geometry::spawn`] says (the helpers on [`ShadowContext`] do it).
     fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3;
 
-    /// [`ShadowModel::transmittance`] of `light` to each of `hits`, into `out` (as long): the
-    /// visibility system asks for a block of hits at a time. The default asks for each hit in
-    /// turn; a model may trace the rays together (with [`ShadowContext::occluders`]) as long as
-    /// each hit gets what `transmittance` gives it.
-    fn transmittance_each(&self, ctx: &ShadowContext<'_>, hits: &[Hit], light: &Light, out: &mut [Vec3]) {
-        for (at, out) in hits.iter().zip(out) {
-            *out = self.transmittance(ctx, at, light);
+    /// [`ShadowModel::transmittance`] of `light` to each hit of `block`, into `out` (as long):
+    /// the visibility system asks for a block of hits at a time, each with its straight ray
+    /// towards the light's point already made. The default asks for each hit in turn; a model
+    /// may trace the rays together (with [`ShadowContext::occluders`]) as long as each hit gets
+    /// what `transmittance` gives it.
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, light: &Light, out: &mut [Vec3]) {
+        for (i, out) in out.iter_mut().enumerate().take(block.len()) {
+            *out = self.transmittance(ctx, &block.hit(ctx, i), light);
         }
     }
 }

@@ -423,6 +423,43 @@ impl Geometry {
         }
     }
 
+    /// [`Geometry::spawn`] for eight hits at once, the same bits lane by lane: the hit points,
+    /// geometric normals, error bounds and objects, and the directions the rays leave in; gives
+    /// the origins and the objects they ignore. A lane whose `object` is no object's index (a
+    /// lane with no hit) is treated as on a curved surface that is not convex; its result
+    /// means nothing.
+    #[inline(always)]
+    pub fn spawn_packet(
+        &self,
+        point: &Packet,
+        normal: &Packet,
+        error: &[f32; 8],
+        object: &[u32; 8],
+        dir: &Packet,
+    ) -> (Packet, [u32; 8]) {
+        use wide::{CmpGt, f32x8};
+        let v = |p: &Packet| p.map(f32x8::new);
+        let (p, n, d) = (v(point), v(normal), v(dir));
+        let mask = |on: [bool; 8]| f32x8::new(on.map(|b| if b { f32::from_bits(u32::MAX) } else { 0.0 }));
+        let kind = object
+            .map(|i| self.objects.get(i as usize).map_or((false, false), |o| (o.shape.is_flat(), o.shape.is_convex())));
+        let (flat, convex) = (mask(kind.map(|k| k.0)), mask(kind.map(|k| k.1)));
+        let outward = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]).cmp_gt(f32x8::ZERO);
+        // Negated by the sign bit, as scalar `-` does (wide's `-c` is `0 − c`: +0 for 0).
+        let side = n.map(|c| outward.blend(c, c ^ f32x8::splat(-0.0)));
+        // `max_element` as glam takes it: `if a > b { a } else { b }`.
+        let gt_max = |a: f32x8, b: f32x8| a.cmp_gt(b).blend(a, b);
+        let reach = gt_max(p[0].abs(), gt_max(p[1].abs(), p[2].abs()));
+        let offset = (f32x8::new(*error) * f32x8::splat(OFFSET_MARGIN)).max(f32x8::splat(OFFSET_FLOOR))
+            + reach * f32x8::splat(f32::EPSILON);
+        let behind = flat | (outward & convex);
+        let origin: [f32x8; 3] =
+            std::array::from_fn(|a| behind.blend(p[a] - side[a] * offset, p[a] + side[a] * offset));
+        let skips = behind.to_array();
+        let skip = std::array::from_fn(|k| if skips[k].to_bits() != 0 { object[k] } else { NO_SKIP });
+        (origin.map(|c| c.to_array()), skip)
+    }
+
     fn test(&self, i: u32, o: Vec3, d: Vec3, tmin: f32, tmax: f32, best: &mut Option<(u32, ShapeHit)>) -> f32 {
         match self.objects[i as usize].intersect(o, d, tmin, tmax) {
             Some(c) => {

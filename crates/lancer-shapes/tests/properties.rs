@@ -190,6 +190,22 @@ fn a_spawned_ray_never_meets_its_own_surface_where_it_starts() {
             let shape = SHAPES[k].clone();
             let (g, origin, dir) = placed_ray(k, m, aim, dir, far);
             let Some(hit) = g.closest_hit(Origin::free(origin), dir, 0.0, f32::INFINITY) else { return Ok(()) };
+            // Eight rays leaving the hit at once get the bits each gets alone.
+            let leaving = [out, -out, dir, -dir, hit.normal, -hit.normal, aim, Vec3::new(out.x, 0.0, -0.0)];
+            let packet = |f: &dyn Fn(usize) -> Vec3| std::array::from_fn(|a| std::array::from_fn(|k| f(k)[a]));
+            let (origins, skips) = g.spawn_packet(
+                &packet(&|_| hit.point),
+                &packet(&|_| hit.normal),
+                &[hit.error; 8],
+                &[hit.object; 8],
+                &packet(&|k| leaving[k]),
+            );
+            for (k, &towards) in leaving.iter().enumerate() {
+                let alone = g.spawn(&hit, towards);
+                let lane = Vec3::new(origins[0][k], origins[1][k], origins[2][k]);
+                prop_assert_eq!(lane.to_array().map(f32::to_bits), alone.point.to_array().map(f32::to_bits));
+                prop_assert_eq!(skips[k], alone.skip);
+            }
             for away in [out, -out] {
                 if away.dot(hit.normal).abs() < 1e-3 {
                     continue;

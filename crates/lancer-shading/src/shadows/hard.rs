@@ -11,10 +11,9 @@
 
 use glam::Vec3;
 use lancer_core::Light;
-use lancer_shapes::{Hit, Lines};
+use lancer_shapes::Hit;
 
-use crate::shadow::BLOCK;
-use crate::{Params, ShadowContext, ShadowModel, ShadowSpec};
+use crate::{HitBlock, Params, ShadowContext, ShadowModel, ShadowSpec};
 
 /// The spec registered under `hard`.
 pub const SPEC: ShadowSpec = ShadowSpec {
@@ -32,26 +31,12 @@ impl ShadowModel for Hard {
         if ctx.blocked(at, dir, dist) { Vec3::ZERO } else { Vec3::ONE }
     }
 
-    fn transmittance_each(&self, ctx: &ShadowContext<'_>, hits: &[Hit], light: &Light, out: &mut [Vec3]) {
-        for (hits, out) in hits.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
-            let (mut origin, mut skip, mut dir) =
-                ([[[0.0f32; 8]; 3]; BLOCK / 8], [0u32; BLOCK], [[[0.0f32; 8]; 3]; BLOCK / 8]);
-            let (mut dist, mut which) = ([0.0f32; BLOCK], [0usize; BLOCK]);
-            let mut rays = 0;
-            for (i, (at, out)) in hits.iter().zip(out.iter_mut()).enumerate() {
-                *out = Vec3::ONE;
-                // The shadow ray `blocked` traces.
-                let Some((d, far)) = ctx.toward(at, light.at) else { continue };
-                let from = ctx.geometry.spawn(at, d);
-                for axis in 0..3 {
-                    (origin[rays / 8][axis][rays % 8], dir[rays / 8][axis][rays % 8]) = (from.point[axis], d[axis]);
-                }
-                (skip[rays], dist[rays], which[rays]) = (from.skip, far, i);
-                rays += 1;
-            }
-            let packets = rays.div_ceil(8);
-            let lines = Lines { origin: &origin[..packets], dir: &dir[..packets], skip: &skip[..rays] };
-            ctx.blocked_each(lines, |r| dist[r], |r| out[which[r]] = Vec3::ZERO);
-        }
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, _: &Light, out: &mut [Vec3]) {
+        out[..block.len()].fill(Vec3::ONE);
+        // The shadow rays `blocked` traces: every hit's but one at the light itself.
+        block.rays_where(
+            |i| block.dist(i) > 0.0,
+            |lines, which| ctx.blocked_each(lines, |r| block.dist(which[r]), |r| out[which[r]] = Vec3::ZERO),
+        );
     }
 }

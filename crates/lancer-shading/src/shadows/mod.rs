@@ -20,7 +20,7 @@ mod tests {
     use lancer_core::{Light, Material};
     use lancer_shapes::{Geometry, Object, Origin, Shape};
 
-    use crate::{ParamValue, Params, Registry, ShadeContext, ShadowContext};
+    use crate::{BLOCK, HitBlock, ParamValue, Params, Registry, ShadeContext, ShadowContext};
 
     #[test]
     fn every_model_gives_a_block_of_hits_what_each_hit_gets_alone() {
@@ -52,6 +52,7 @@ mod tests {
             })
             .collect();
         assert!(hits.len() > 250);
+        let columns = crate::shadow::columns_of(&hits);
         let registry = Registry::with_builtins();
         let models =
             [("hard", false), ("transmissive", false), ("transmissive", true), ("soft", true), ("none", false)];
@@ -66,12 +67,18 @@ mod tests {
                 (Vec3::new(3.0, 8.0, -2.0), 0.0),
                 (Vec3::new(-6.0, 1.0, 0.5), 0.0),
                 (Vec3::new(0.0, 1.2, 0.1), 0.0),
+                // At a hit point: that hit gets all of it, with no ray.
+                (hits[70].point, 0.0),
                 (Vec3::new(2.0, 6.0, 2.0), 1.5),
             ] {
                 let light = Light { at, color: Vec3::ONE, intensity: 1.0, size };
                 let (each_ctx, alone_ctx) = (ShadowContext::new(&scene), ShadowContext::new(&scene));
                 let mut each = vec![Vec3::splat(7.0); hits.len()];
-                model.transmittance_each(&each_ctx, &hits, &light, &mut each);
+                for start in (0..hits.len()).step_by(BLOCK) {
+                    let lanes: Vec<usize> = (start..(start + BLOCK).min(hits.len())).collect();
+                    let block = HitBlock::toward(&scene, &columns, &lanes, light.at);
+                    model.transmittance_each(&each_ctx, &block, &light, &mut each[start..start + lanes.len()]);
+                }
                 for (hit, got) in hits.iter().zip(&each) {
                     let alone = model.transmittance(&alone_ctx, hit, &light);
                     assert_eq!(got.to_array().map(f32::to_bits), alone.to_array().map(f32::to_bits), "{name}: {hit:?}");

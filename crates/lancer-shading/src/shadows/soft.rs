@@ -23,7 +23,8 @@ use lancer_core::Light;
 use lancer_shapes::Hit;
 
 use super::transmissive::{TINT, through_each, through_occluders, through_occluders_each};
-use crate::{ParamError, ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
+use crate::shadow::BLOCK;
+use crate::{HitBlock, ParamError, ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 
 /// The spec registered under `soft`.
 pub const SPEC: ShadowSpec = ShadowSpec {
@@ -103,10 +104,15 @@ impl ShadowModel for Soft {
         sum / n as f32
     }
 
-    fn transmittance_each(&self, ctx: &ShadowContext<'_>, hits: &[Hit], light: &Light, out: &mut [Vec3]) {
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, light: &Light, out: &mut [Vec3]) {
         if light.size <= 0.0 {
-            return through_occluders_each(ctx, hits, light.at, self.tint, out);
+            return through_occluders_each(ctx, block, self.tint, out);
         }
+        let mut hits = [Hit::default(); BLOCK];
+        for (i, hit) in hits.iter_mut().enumerate().take(block.len()) {
+            *hit = block.hit(ctx, i);
+        }
+        let (hits, out) = (&hits[..block.len()], &mut out[..block.len()]);
         // Sample by sample, the block's rays together; each hit's sum in the order
         // `transmittance` makes it (sample 0 first).
         let n = self.side * self.side;

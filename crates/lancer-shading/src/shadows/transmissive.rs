@@ -14,6 +14,7 @@ use glam::Vec3;
 use lancer_core::Light;
 use lancer_shapes::{Hit, Lines, Packet};
 
+use crate::HitBlock;
 use crate::shadow::BLOCK;
 use crate::{ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 
@@ -45,8 +46,8 @@ impl ShadowModel for Transmissive {
         }
     }
 
-    fn transmittance_each(&self, ctx: &ShadowContext<'_>, hits: &[Hit], light: &Light, out: &mut [Vec3]) {
-        through_occluders_each(ctx, hits, light.at, self.tint, out);
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, _: &Light, out: &mut [Vec3]) {
+        through_occluders_each(ctx, block, self.tint, out);
     }
 }
 
@@ -60,11 +61,50 @@ pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32
     onward(ctx, at, dir, dist, tint, None)
 }
 
-/// [`through_occluders`] from each of `hits` to `target`, into `out`: the first stretch of every
-/// shadow ray traced together ([`ShadowContext::occluders`]), the rest (past transparent
-/// objects) one by one. Each hit gets what `through_occluders` gives it alone.
-pub fn through_occluders_each(ctx: &ShadowContext<'_>, hits: &[Hit], target: Vec3, tint: bool, out: &mut [Vec3]) {
-    through_each(ctx, hits, |_| target, tint, |i, light| out[i] = light.unwrap_or(Vec3::ONE));
+/// [`through_occluders`] from each hit of `block` along its straight ray, into `out`: the first
+/// stretch of every shadow ray traced together ([`ShadowContext::occluders`]), the rest (past
+/// transparent objects) one by one. Each hit gets what `through_occluders` gives it alone.
+pub fn through_occluders_each(ctx: &ShadowContext<'_>, block: &HitBlock<'_>, tint: bool, out: &mut [Vec3]) {
+    FIRST.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut first) => through_block(ctx, block, tint, out, &mut first),
+        Err(_) => through_block(ctx, block, tint, out, &mut [None; BLOCK]),
+    })
+}
+
+type Crossing = Option<(u32, lancer_shapes::ShapeHit)>;
+
+thread_local! {
+    /// Each thread's record of what each ray of a block meets first, reused from block to
+    /// block (a block clears the entries it uses).
+    static FIRST: std::cell::RefCell<[Crossing; BLOCK]> = const { std::cell::RefCell::new([None; BLOCK]) };
+}
+
+fn through_block(
+    ctx: &ShadowContext<'_>,
+    block: &HitBlock<'_>,
+    tint: bool,
+    out: &mut [Vec3],
+    first: &mut [Crossing; BLOCK],
+) {
+    let n = block.len();
+    first[..n].fill(None);
+    // A ray with nothing left (a hit at the light, or within the start's offset of it) is not
+    // traced: the light reaches it whole, as `onward` finds before tracing.
+    // (A NaN length, which `onward` would trace, counts as ahead.)
+    let ahead = |i: usize| block.left(i) > 0.0 || block.left(i).is_nan();
+    block.rays_where(ahead, |lines, which| {
+        ctx.occluders(lines, |r| block.left(which[r]), |r, object, c| first[which[r]] = Some((object, *c)));
+    });
+    for (i, out) in out.iter_mut().enumerate().take(n) {
+        // What `onward` gives for a first stretch that meets nothing (all of the light) or an
+        // opaque object (none), without starting its walk.
+        *out = match first[i] {
+            _ if !ahead(i) => Vec3::ONE,
+            None => Vec3::ONE,
+            Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
+            crossing => onward(ctx, &block.hit(ctx, i), block.dir(i), block.dist(i), tint, Some(crossing)),
+        };
+    }
 }
 
 /// [`through_occluders`] from each hit `i` of `hits` to its own `target(i)`, traced as

@@ -1,0 +1,240 @@
+//! The light visibility system: for every hit some term reads lights on, and every light, the
+//! direction to the light and the light arriving through the shadow model, eight lanes at once.
+
+use glam::Vec3;
+use lancer_core::rays::{Hits, LightSamples, NO_HIT, PACKET};
+use lancer_shapes::Origin;
+use wide::{CmpGt, CmpLe, CmpLt, f32x8};
+
+use crate::shadow::BLOCK;
+use crate::{HitBlock, Pipeline, ShadeContext, ShadowContext};
+
+/// Every bit set: a lane's "true".
+const TRUE: f32 = f32::from_bits(u32::MAX);
+
+/// For every hit on which some term reads lights ([`crate::Term::reads_lights`], by material:
+/// `lit`) and every light: the direction to the light and the light arriving through the
+/// pipeline's shadow model. Lights behind the surface (`N·w <= 0`, the normal facing the ray)
+/// send nothing. Block by block and light by light, so a shadow model traces a block's shadow
+/// rays towards one light together.
+pub(crate) fn visibility_system(
+    world: &mut hecs::World,
+    ctx: &ShadeContext<'_>,
+    shadow_ctx: &ShadowContext<'_>,
+    pipeline: &Pipeline,
+    lit: &[bool],
+) {
+    let shadows = &pipeline.shadows.model;
+    let lights = ctx.lights.len();
+    let mut out = [Vec3::ZERO; BLOCK];
+    for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
+        let n = hits.object.len();
+        let mut block = HitBlock::empty(hits);
+        for start in (0..n).step_by(BLOCK) {
+            let end = (start + BLOCK).min(n);
+            // The lanes with a hit some term reads lights on, a bit per lane of each group.
+            let mut alive = [0u8; BLOCK / PACKET];
+            for lane in start..end {
+                if hits.object[lane] != NO_HIT && lit[hits.material[lane] as usize] {
+                    alive[(lane - start) / PACKET] |= 1 << (lane % PACKET);
+                }
+            }
+            for (k, light) in ctx.lights.iter().enumerate() {
+                block.clear();
+                for (g, &alive) in alive.iter().enumerate().take((end - start).div_ceil(PACKET)) {
+                    if alive != 0 {
+                        toward_light(ctx, hits, start + g * PACKET, alive, light.at, samples, k, lights, &mut block);
+                    }
+                }
+                if block.is_empty() {
+                    continue;
+                }
+                let reached = block.len();
+                shadows.transmittance_each(shadow_ctx, &block, light, &mut out[..reached]);
+                for (i, through) in out[..reached].iter().enumerate() {
+                    samples.incoming[block.lane(i) * lights + k] = light.radiance() * *through;
+                }
+            }
+        }
+    }
+}
+
+/// The eight lanes from `base` (a packet's first) whose bit is set in `alive`, towards the light
+/// at `target`: `w`, the unit direction to the light (`try_normalize`'s bits), into the samples
+/// of light `k`; and each lane the light reaches the front of (`N·w > 0`), with its straight
+/// shadow ray (`toward` and `Geometry::spawn`'s bits), into `block`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn toward_light(
+    ctx: &ShadeContext<'_>,
+    hits: &Hits,
+    base: usize,
+    alive: u8,
+    target: Vec3,
+    samples: &mut LightSamples,
+    k: usize,
+    lights: usize,
+    block: &mut HitBlock<'_>,
+) {
+    let packet = base / PACKET;
+    let lanes = (hits.object.len() - base).min(PACKET);
+    let load = |p: &lancer_core::rays::Packet| p.map(f32x8::new);
+    let (point, normal, shading) = (
+        load(&hits.point.packets()[packet]),
+        load(&hits.normal.packets()[packet]),
+        load(&hits.shading.packets()[packet]),
+    );
+    let (mut error, mut object, mut front) = ([0.0f32; PACKET], [NO_HIT; PACKET], [0.0f32; PACKET]);
+    for j in 0..lanes {
+        (error[j], object[j]) = (hits.error[base + j], hits.object[base + j]);
+        front[j] = if hits.front[base + j] { TRUE } else { 0.0 };
+    }
+    let live = f32x8::new(std::array::from_fn(|j| if alive & (1 << j) != 0 { TRUE } else { 0.0 }));
+    let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let d: [f32x8; 3] = std::array::from_fn(|a| f32x8::splat(target[a]) - point[a]);
+    let length = dot(&d, &d).sqrt();
+    // `try_normalize`: the reciprocal of the length, finite and positive.
+    let rcp = f32x8::ONE / length;
+    let normal_ok = rcp.abs().cmp_lt(f32x8::splat(f32::INFINITY)) & rcp.cmp_gt(f32x8::ZERO);
+    let w = d.map(|c| c * rcp);
+    // The shading normal facing the ray (turned round by its sign bit on a back-face hit).
+    let front = f32x8::new(front);
+    let facing = shading.map(|c| front.blend(c, c ^ f32x8::splat(-0.0)));
+    let away = dot(&facing, &w).cmp_le(f32x8::ZERO);
+    let with_w = (live & normal_ok).move_mask();
+    let reached = (live & normal_ok & !away).move_mask();
+    if with_w != 0 {
+        let w = w.map(|c| c.to_array());
+        let mut bits = with_w;
+        while bits != 0 {
+            let j = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            samples.w[(base + j) * lights + k] = Vec3::new(w[0][j], w[1][j], w[2][j]);
+        }
+    }
+    if reached == 0 {
+        return;
+    }
+    // `toward`: the distance is the same length; the direction `d / length`.
+    let dir = d.map(|c| c / length);
+    let dir_lanes = dir.map(|c| c.to_array());
+    let (origin, skip) = ctx.geometry.spawn_packet(
+        &point.map(|c| c.to_array()),
+        &normal.map(|c| c.to_array()),
+        &error,
+        &object,
+        &dir_lanes,
+    );
+    let from = origin.map(f32x8::new);
+    let offset: [f32x8; 3] = std::array::from_fn(|a| from[a] - point[a]);
+    let left = (length - dot(&offset, &dir)).to_array();
+    let length = length.to_array();
+    let mut bits = reached;
+    while bits != 0 {
+        let j = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        let from = Origin { point: Vec3::new(origin[0][j], origin[1][j], origin[2][j]), skip: skip[j] };
+        let dir = Vec3::new(dir_lanes[0][j], dir_lanes[1][j], dir_lanes[2][j]);
+        block.push(base + j, from, dir, length[j], left[j]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{Affine3A, Vec3};
+    use lancer_core::Material;
+    use lancer_core::rays::{LightSamples, NO_HIT, PACKET};
+    use lancer_shapes::{Geometry, Object, Origin, Shape};
+
+    use crate::shadow::{BLOCK, columns_of};
+    use crate::{HitBlock, ShadeContext};
+
+    #[test]
+    fn eight_lanes_at_once_give_each_hit_the_bits_it_gets_alone() {
+        // Hits on a floor, spheres (from outside and, through the glass one, from inside), a
+        // cube and a disk, among lanes with no hit and lanes no term lights; lights above, below
+        // the floor and at a hit point. `w` and the straight shadow rays made eight lanes at a
+        // time are, lane by lane and to the bit, those of the scalar arithmetic.
+        let place = |shape: Shape, scale: f32, at: Vec3| {
+            let m = Affine3A::from_scale_rotation_translation(Vec3::splat(scale), glam::Quat::from_rotation_y(0.4), at);
+            Object::new(shape, m, 0).unwrap()
+        };
+        let g = Geometry::new(vec![
+            place(Shape::Plane, 1.0, Vec3::ZERO),
+            place(Shape::Sphere, 1.0, Vec3::new(0.0, 1.0, 0.0)),
+            place(Shape::Cube, 0.6, Vec3::new(-2.0, 0.6, -1.0)),
+            place(Shape::Disk, 0.8, Vec3::new(1.0, 2.5, -1.0)),
+            place(Shape::Sphere, 0.5, Vec3::new(2.0, 0.5, 1.0)),
+        ]);
+        let materials = [Material::default()];
+        let scene = ShadeContext { geometry: &g, materials: &materials, lights: &[], max_depth: 5, textures: &[] };
+        let list: Vec<_> = (0..200)
+            .filter_map(|k| {
+                let a = k as f32 * 0.618_034;
+                let eye = if k % 7 == 0 {
+                    Vec3::new(0.1 * a.cos(), 1.0, 0.1 * a.sin())
+                } else {
+                    Vec3::new(6.0 * a.cos(), 3.0 + 5.0 * (a * 1.3).sin().abs(), 6.0 * a.sin())
+                };
+                let aim = Vec3::new(3.0 * (a * 2.1).sin(), (a * 0.7).cos().abs() * 2.0, 3.0 * (a * 1.7).cos());
+                g.closest_hit(Origin::free(eye), (aim - eye).normalize(), 0.0, f32::INFINITY)
+            })
+            .collect();
+        assert!(list.iter().any(|h| !h.front) && list.len() > 150);
+        let mut hits = columns_of(&list);
+        // Lanes with no hit: their columns keep stale values.
+        for lane in (5..hits.object.len()).step_by(11) {
+            hits.object[lane] = NO_HIT;
+        }
+        let n = hits.object.len();
+        let mut lit = 0;
+        for target in [Vec3::new(3.0, 8.0, -2.0), Vec3::new(-1.0, -4.0, 0.5), list[9].point] {
+            let mut samples = LightSamples::default();
+            samples.reset(n, 2);
+            let mut got = Vec::new();
+            for start in (0..n).step_by(BLOCK) {
+                let mut block = HitBlock::empty(&hits);
+                for base in (start..(start + BLOCK).min(n)).step_by(PACKET) {
+                    // Every lane with a hit but every third, as if no term read lights there.
+                    let alive = (0..PACKET.min(n - base))
+                        .filter(|&j| hits.object[base + j] != NO_HIT && (base + j) % 3 != 0)
+                        .fold(0u8, |bits, j| bits | 1 << j);
+                    super::toward_light(&scene, &hits, base, alive, target, &mut samples, 1, 2, &mut block);
+                }
+                got.extend((0..block.len()).map(|i| {
+                    let (p, k) = (i / PACKET, i % PACKET);
+                    let origin = Vec3::new(block.origin[p][0][k], block.origin[p][1][k], block.origin[p][2][k]);
+                    (block.lane(i), origin, block.skip[i], block.dir(i), block.dist(i), block.left(i))
+                }));
+            }
+            let mut want = Vec::new();
+            for lane in (0..n).filter(|&l| hits.object[l] != NO_HIT && l % 3 != 0) {
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                let Some(w) = (target - hits.point.at(lane)).try_normalize() else {
+                    assert_eq!(samples.w[lane * 2 + 1], Vec3::ZERO, "lane {lane}: no direction");
+                    continue;
+                };
+                assert_eq!(bits(samples.w[lane * 2 + 1]), bits(w), "lane {lane}");
+                if hits.facing_normal(lane).dot(w) <= 0.0 {
+                    continue;
+                }
+                let alone = HitBlock::toward(&scene, &hits, &[lane], target);
+                let origin = Vec3::new(alone.origin[0][0][0], alone.origin[0][1][0], alone.origin[0][2][0]);
+                want.push((lane, origin, alone.skip[0], alone.dir(0), alone.dist(0), alone.left(0)));
+            }
+            lit += want.len();
+            let bits = |e: &(usize, Vec3, u32, Vec3, f32, f32)| {
+                (
+                    e.0,
+                    e.1.to_array().map(f32::to_bits),
+                    e.2,
+                    e.3.to_array().map(f32::to_bits),
+                    e.4.to_bits(),
+                    e.5.to_bits(),
+                )
+            };
+            assert_eq!(got.iter().map(bits).collect::<Vec<_>>(), want.iter().map(bits).collect::<Vec<_>>());
+        }
+        assert!(lit > 100, "{lit} lit");
+    }
+}
