@@ -124,6 +124,12 @@ impl Vec3s {
         &self.packets
     }
 
+    /// The packets, to write eight lanes at once (lanes past [`Vec3s::len`] mean nothing).
+    #[inline]
+    pub fn packets_mut(&mut self) -> &mut [Packet] {
+        &mut self.packets
+    }
+
     /// Every lane, in order.
     pub fn iter(&self) -> impl Iterator<Item = Vec3> + '_ {
         (0..self.len).map(|lane| self.at(lane))
@@ -292,30 +298,34 @@ impl Hits {
 /// Light arriving at each lane's hit, `lights` entries per lane (written by the visibility system).
 #[derive(Clone, Debug, Default)]
 pub struct LightSamples {
-    /// Number of lights (entries per lane).
+    /// Number of lights.
     pub lights: usize,
-    /// Unit direction from the hit towards each light (`w`).
-    pub w: Vec<Vec3>,
-    /// Light colour reaching the hit: `Col_L` times the shadow model's transmittance; zero when the
-    /// light is hidden, behind the surface (`N·w <= 0`), or the lane has no hit.
-    pub incoming: Vec<Vec3>,
+    /// Per light (in scene order), each lane's unit direction from its hit towards the light
+    /// (`w`).
+    pub w: Vec<Vec3s>,
+    /// Per light, the light colour reaching each lane's hit: `Col_L` times the shadow model's
+    /// transmittance; zero when the light is hidden, behind the surface (`N·w <= 0`), or the
+    /// lane has no hit.
+    pub incoming: Vec<Vec3s>,
 }
 
 impl LightSamples {
     /// Makes these columns `lanes` lanes of darkness for `lights` lights, reusing their capacity.
     pub fn reset(&mut self, lanes: usize, lights: usize) {
         self.lights = lights;
-        self.w.clear();
-        self.w.resize(lanes * lights, Vec3::ZERO);
-        self.incoming.clear();
-        self.incoming.resize(lanes * lights, Vec3::ZERO);
+        for columns in [&mut self.w, &mut self.incoming] {
+            columns.resize_with(lights, Vec3s::default);
+            for column in columns.iter_mut() {
+                column.clear();
+                column.resize(lanes, Vec3::ZERO);
+            }
+        }
     }
 
-    /// The `(w, incoming)` pairs of one lane.
+    /// The `(w, incoming)` pairs of one lane, light by light.
     #[inline]
     pub fn lane(&self, lane: usize) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
-        let r = lane * self.lights..(lane + 1) * self.lights;
-        self.w[r.clone()].iter().copied().zip(self.incoming[r].iter().copied())
+        self.w.iter().zip(&self.incoming).map(move |(w, incoming)| (w.at(lane), incoming.at(lane)))
     }
 }
 

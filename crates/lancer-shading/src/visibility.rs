@@ -25,7 +25,6 @@ pub(crate) fn visibility_system(
     lit: &[bool],
 ) {
     let shadows = &pipeline.shadows.model;
-    let lights = ctx.lights.len();
     let mut out = [Vec3::ZERO; BLOCK];
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         let n = hits.object.len();
@@ -43,7 +42,7 @@ pub(crate) fn visibility_system(
                 block.clear();
                 for (g, &alive) in alive.iter().enumerate().take((end - start).div_ceil(PACKET)) {
                     if alive != 0 {
-                        toward_light(ctx, hits, start + g * PACKET, alive, light.at, samples, k, lights, &mut block);
+                        toward_light(ctx, hits, start + g * PACKET, alive, light.at, samples, k, &mut block);
                     }
                 }
                 if block.is_empty() {
@@ -52,7 +51,7 @@ pub(crate) fn visibility_system(
                 let reached = block.len();
                 shadows.transmittance_each(shadow_ctx, &block, light, &mut out[..reached]);
                 for (i, through) in out[..reached].iter().enumerate() {
-                    samples.incoming[block.lane(i) * lights + k] = light.radiance() * *through;
+                    samples.incoming[k].set(block.lane(i), light.radiance() * *through);
                 }
             }
         }
@@ -73,7 +72,6 @@ fn toward_light(
     target: Vec3,
     samples: &mut LightSamples,
     k: usize,
-    lights: usize,
     block: &mut HitBlock<'_>,
 ) {
     let packet = base / PACKET;
@@ -104,13 +102,9 @@ fn toward_light(
     let with_w = (live & normal_ok).move_mask();
     let reached = (live & normal_ok & !away).move_mask();
     if with_w != 0 {
-        let w = w.map(|c| c.to_array());
-        let mut bits = with_w;
-        while bits != 0 {
-            let j = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            samples.w[(base + j) * lights + k] = Vec3::new(w[0][j], w[1][j], w[2][j]);
-        }
+        // The other lanes keep the zero `reset` gave them.
+        let kept = live & normal_ok;
+        samples.w[k].packets_mut()[packet] = w.map(|c| kept.blend(c, f32x8::ZERO).to_array());
     }
     if reached == 0 {
         return;
@@ -199,7 +193,7 @@ mod tests {
                     let alive = (0..PACKET.min(n - base))
                         .filter(|&j| hits.object[base + j] != NO_HIT && (base + j) % 3 != 0)
                         .fold(0u8, |bits, j| bits | 1 << j);
-                    super::toward_light(&scene, &hits, base, alive, target, &mut samples, 1, 2, &mut block);
+                    super::toward_light(&scene, &hits, base, alive, target, &mut samples, 1, &mut block);
                 }
                 got.extend((0..block.len()).map(|i| {
                     let (p, k) = (i / PACKET, i % PACKET);
@@ -211,10 +205,10 @@ mod tests {
             for lane in (0..n).filter(|&l| hits.object[l] != NO_HIT && l % 3 != 0) {
                 let bits = |v: Vec3| v.to_array().map(f32::to_bits);
                 let Some(w) = (target - hits.point.at(lane)).try_normalize() else {
-                    assert_eq!(samples.w[lane * 2 + 1], Vec3::ZERO, "lane {lane}: no direction");
+                    assert_eq!(samples.w[1].at(lane), Vec3::ZERO, "lane {lane}: no direction");
                     continue;
                 };
-                assert_eq!(bits(samples.w[lane * 2 + 1]), bits(w), "lane {lane}");
+                assert_eq!(bits(samples.w[1].at(lane)), bits(w), "lane {lane}");
                 if hits.facing_normal(lane).dot(w) <= 0.0 {
                     continue;
                 }
