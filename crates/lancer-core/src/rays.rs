@@ -146,7 +146,7 @@ pub struct Rays {
     /// Unit directions.
     pub dir: Vec3s,
     /// Throughput: what this ray's colour is multiplied by before it reaches its pixel.
-    pub weight: Vec<Vec3>,
+    pub weight: Vec3s,
     /// Pixel index inside the tile.
     pub pixel: Vec<u32>,
     /// Recursion depth (0 for camera rays).
@@ -174,7 +174,7 @@ impl Rays {
             origin: Vec3s::with_capacity(n),
             skip: Vec::with_capacity(n),
             dir: Vec3s::with_capacity(n),
-            weight: Vec::with_capacity(n),
+            weight: Vec3s::with_capacity(n),
             pixel: Vec::with_capacity(n),
             depth: Vec::with_capacity(n),
             credit: Vec::with_capacity(n),
@@ -198,7 +198,7 @@ impl Rays {
         self.origin.extend_from(&src.origin, range.clone());
         self.skip.extend_from_slice(&src.skip[range.clone()]);
         self.dir.extend_from(&src.dir, range.clone());
-        self.weight.extend_from_slice(&src.weight[range.clone()]);
+        self.weight.extend_from(&src.weight, range.clone());
         self.pixel.extend_from_slice(&src.pixel[range.clone()]);
         self.depth.extend_from_slice(&src.depth[range.clone()]);
         self.credit.extend_from_slice(&src.credit[range]);
@@ -247,7 +247,7 @@ pub struct Hits {
     pub material: Vec<u32>,
     /// `Col_Ω`: the material's colour at the hit (its pattern or texture evaluated there), found
     /// once for every term that reads it.
-    pub color: Vec<Vec3>,
+    pub color: Vec3s,
 }
 
 impl Hits {

@@ -182,12 +182,12 @@ impl Recorder {
                 depth: rays.depth[0],
                 origin: rays.origin.at(0),
                 dir: rays.dir.at(0),
-                weight: rays.weight[0],
+                weight: rays.weight.at(0),
                 credit,
                 hit: None,
                 lights: Vec::new(),
                 terms: Vec::new(),
-                background: (missed && background != Vec3::ZERO).then(|| rays.weight[0] * background),
+                background: (missed && background != Vec3::ZERO).then(|| rays.weight.at(0) * background),
                 children: Vec::new(),
             };
             if !missed {

@@ -7,6 +7,7 @@
 
 mod choice;
 mod explain;
+mod lanes;
 mod params;
 mod pattern;
 mod prepare;

@@ -474,7 +474,7 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
             hits.front[lane] = h.front;
             hits.object[lane] = h.object;
             hits.material[lane] = objects[i as usize].material;
-            hits.color[lane] = ctx.surface_color(i, h.local, h.uv);
+            hits.color.set(lane, ctx.surface_color(i, h.local, h.uv));
         };
         let lines = Lines { origin: rays.origin.packets(), dir: rays.dir.packets(), skip: &rays.skip };
         ctx.geometry.closest_each(lines, |_| f32::INFINITY, found);
@@ -491,7 +491,7 @@ fn background_system(world: &hecs::World, background: Vec3, background_layer: us
         for lane in 0..rays.len() {
             if hits.object[lane] == NO_HIT {
                 let layer = if rays.credit[lane] == CREDIT_OWN { background_layer } else { rays.credit[lane] as usize };
-                accum[layer][rays.pixel[lane] as usize] += rays.weight[lane] * background;
+                accum[layer][rays.pixel[lane] as usize] += rays.weight.at(lane) * background;
             }
         }
     }

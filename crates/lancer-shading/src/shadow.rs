@@ -258,7 +258,8 @@ pub(crate) fn columns_of(list: &[Hit]) -> Hits {
     hits.reset(list.len());
     for (lane, h) in list.iter().enumerate() {
         (hits.t[lane], hits.object[lane], hits.local[lane], hits.uv[lane]) = (h.t, h.object, h.local, h.uv);
-        (hits.error[lane], hits.front[lane], hits.material[lane], hits.color[lane]) = (h.error, h.front, 0, Vec3::ZERO);
+        (hits.error[lane], hits.front[lane], hits.material[lane]) = (h.error, h.front, 0);
+        hits.color.set(lane, Vec3::ZERO);
         hits.point.set(lane, h.point);
         hits.normal.set(lane, h.normal);
         hits.shading.set(lane, h.shading);

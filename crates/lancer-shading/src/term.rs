@@ -48,7 +48,7 @@ impl ShadeContext<'_> {
     /// `Col_Ω` at the hit of `lane`, as the trace system found it ([`ShadeContext::surface_color`]).
     #[inline]
     pub fn color(&self, hits: &Hits, lane: usize) -> Vec3 {
-        hits.color[lane]
+        hits.color.at(lane)
     }
 
     /// `Col_Ω` of object `object` at a hit at `local` (object space) with texture coordinates
@@ -124,10 +124,33 @@ impl TermOutput<'_> {
     #[inline(always)]
     pub fn add(&mut self, lane: usize, colour: Vec3) {
         let layer = self.credit(lane) as usize;
-        let added = self.weight * self.rays.weight[lane] * colour;
+        let added = self.weight * self.rays.weight.at(lane) * colour;
         self.accum[layer][self.rays.pixel[lane] as usize] += added;
         if let Some(record) = self.record.as_deref_mut() {
             record.push((colour, added));
+        }
+    }
+
+    /// [`TermOutput::add`] for the lanes of the group from `base` (a packet's first lane) set in
+    /// `bits`, in lane order: `colour` eight lanes at a time, times the ray weights with the
+    /// same bits as lane by lane.
+    #[inline(always)]
+    pub(crate) fn add_lanes(&mut self, base: usize, bits: u8, colour: &crate::lanes::V3) {
+        let weight = crate::lanes::load(&self.rays.weight.packets()[base / lancer_core::rays::PACKET]);
+        let term = wide::f32x8::splat(self.weight);
+        let added: [[f32; 8]; 3] = std::array::from_fn(|a| (term * weight[a] * colour[a]).to_array());
+        let colour = colour.map(|c| c.to_array());
+        let mut bits = bits;
+        while bits != 0 {
+            let j = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let lane = base + j;
+            let layer = self.credit(lane) as usize;
+            let add = Vec3::new(added[0][j], added[1][j], added[2][j]);
+            self.accum[layer][self.rays.pixel[lane] as usize] += add;
+            if let Some(record) = self.record.as_deref_mut() {
+                record.push((Vec3::new(colour[0][j], colour[1][j], colour[2][j]), add));
+            }
         }
     }
 
@@ -141,7 +164,7 @@ impl TermOutput<'_> {
     /// `factor` times in the parent's. Does nothing past the depth limit or for a zero factor.
     #[inline(always)]
     pub fn spawn(&mut self, lane: usize, origin: Origin, dir: Vec3, factor: Vec3) {
-        let weight = self.weight * self.rays.weight[lane] * factor;
+        let weight = self.weight * self.rays.weight.at(lane) * factor;
         if !self.can_spawn(lane) || weight == Vec3::ZERO {
             return;
         }

@@ -9,6 +9,7 @@
 //! terms = ["ambient"]
 //! ```
 
+use crate::lanes::Group;
 use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `ambient`, variant `seed`.
@@ -37,10 +38,11 @@ impl Term for Ambient {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
-        for lane in chunk.hit_lanes() {
-            let m = ctx.material(chunk.hits, lane);
-            if m.ambi > 0.0 {
-                out.add(lane, m.ambi * ctx.color(chunk.hits, lane));
+        for group in Group::all(chunk.hits) {
+            let (ambi, active) = group.param(ctx, chunk.hits, |m| m.ambi);
+            if active != 0 {
+                let (ambi, color) = (wide::f32x8::new(ambi), group.color(chunk.hits));
+                out.add_lanes(group.base, active, &color.map(|c| ambi * c));
             }
         }
     }

@@ -9,8 +9,11 @@
 //! terms = ["ambient", "diffuse"]
 //! ```
 
+use wide::{CmpGt, f32x8};
+
+use crate::lanes::{self, Group};
 use crate::term::facing;
-use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec, lit_by, sum_lights};
+use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec, lit_by};
 
 /// The spec registered as `diffuse`, variant `lambert`.
 pub const SPEC: TermSpec = TermSpec {
@@ -41,14 +44,26 @@ impl Term for Lambert {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
-        for lane in chunk.hit_lanes() {
-            let m = ctx.material(chunk.hits, lane);
-            if m.diff <= 0.0 {
+        // Eight lanes at a time, `sum_lights`' arithmetic lane by lane (so the same bits).
+        for group in Group::all(chunk.hits) {
+            let (diff, active) = group.param(ctx, chunk.hits, |m| m.diff);
+            if active == 0 {
                 continue;
             }
-            let (_, n) = facing(&chunk, lane);
-            let sum = sum_lights(&chunk, lane, n, |nw, _| nw);
-            out.add(lane, m.diff * ctx.color(chunk.hits, lane) * sum);
+            let n = group.facing(chunk.hits);
+            let on = lanes::mask(active);
+            let mut sum = [f32x8::ZERO; 3];
+            for k in 0..chunk.lights.lights {
+                let (w, light) = group.light(chunk.lights, k);
+                let nw = lanes::dot(&n, &w);
+                let lit = on & nw.cmp_gt(f32x8::ZERO) & lanes::nonzero(&light);
+                for a in 0..3 {
+                    sum[a] = lit.blend(sum[a] + nw * light[a], sum[a]);
+                }
+            }
+            let (diff, color) = (f32x8::new(diff), group.color(chunk.hits));
+            let colour: lanes::V3 = std::array::from_fn(|a| diff * color[a] * sum[a]);
+            out.add_lanes(group.base, active, &colour);
         }
     }
 }
