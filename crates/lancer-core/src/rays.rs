@@ -78,6 +78,15 @@ impl Vec3s {
         self.len += 1;
     }
 
+    /// Appends the first `lanes` lanes of `packet` (at most [`PACKET`]) to a column that ends
+    /// at a packet's end.
+    #[inline]
+    pub fn push_packet(&mut self, packet: &Packet, lanes: usize) {
+        assert!(self.len.is_multiple_of(PACKET) && lanes <= PACKET, "{lanes} lanes after {}", self.len);
+        self.packets.push(*packet);
+        self.len += lanes;
+    }
+
     /// Removes every lane, keeping the capacity.
     pub fn clear(&mut self) {
         self.packets.clear();

@@ -127,7 +127,8 @@ impl Group {
     #[inline(always)]
     pub(crate) fn facing(&self, hits: &Hits) -> V3 {
         let shading = load(&hits.shading.packets()[self.base / PACKET]);
-        let front = f32x8::new(std::array::from_fn(|j| if j < self.len && hits.front[self.base + j] { TRUE } else { 0.0 }));
+        let front =
+            f32x8::new(std::array::from_fn(|j| if j < self.len && hits.front[self.base + j] { TRUE } else { 0.0 }));
         shading.map(|c| front.blend(c, neg(c)))
     }
 
@@ -154,8 +155,11 @@ mod tests {
         let mut f = 0.37f32;
         for round in 0..2000 {
             f = (f * 3.7 + 0.11).fract();
-            let c = f32x8::new(std::array::from_fn(|j| (f + j as f32 * 0.119).fract() * if round % 9 == 0 { 1.3 } else { 1.0 }));
-            let e: [u32; 8] = std::array::from_fn(|j| [1, 2, 5, 20, 40, 80, 100, 1024, 3, 7, 64, 65535][(round + j * 5) % 12]);
+            let c = f32x8::new(std::array::from_fn(|j| {
+                (f + j as f32 * 0.119).fract() * if round % 9 == 0 { 1.3 } else { 1.0 }
+            }));
+            let e: [u32; 8] =
+                std::array::from_fn(|j| [1, 2, 5, 20, 40, 80, 100, 1024, 3, 7, 64, 65535][(round + j * 5) % 12]);
             let got = super::powi(c, e).to_array();
             for j in 0..8 {
                 let want = c.to_array()[j].powi(e[j] as i32);

@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use lancer_core::frame::BACKGROUND;
-use lancer_core::rays::{CHUNK_LANES, CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
+use lancer_core::rays::{CHUNK_LANES, CREDIT_OWN, Hits, LightSamples, NO_HIT, PACKET, Rays};
 use lancer_core::{Camera, Frame, ImageSettings, Layer, RenderStats, Scene};
 use lancer_shapes::{Lines, NO_SKIP};
 use rayon::prelude::*;
@@ -28,16 +28,16 @@ const _: () = assert!((TILE_WIDTH * TILE) as usize <= CHUNK_LANES);
 /// the image, not a strip, and its rays stay within a narrow cone.
 const CELL: u32 = 8;
 
-/// The tile-local pixel indices of a `w` x `h` tile in the order its camera rays are made:
+/// The tile-local pixels `(x, y)` of a `w` x `h` tile in the order its camera rays are made:
 /// [`CELL`]-square cells row by row, each cell's pixels row by row (cells cut at the tile's
 /// right and bottom edges). Every pixel once. A pixel's rays, and the rays they spawn, keep
 /// their order among themselves whatever the order of the pixels, so its sums are the same.
-fn cell_order(w: u32, h: u32, out: &mut Vec<u32>) {
+fn cell_order(w: u32, h: u32, out: &mut Vec<(u32, u32)>) {
     out.clear();
     for cy in (0..h).step_by(CELL as usize) {
         for cx in (0..w).step_by(CELL as usize) {
             for y in cy..(cy + CELL).min(h) {
-                out.extend((cx..(cx + CELL).min(w)).map(|x| y * w + x));
+                out.extend((cx..(cx + CELL).min(w)).map(|x| (x, y)));
             }
         }
     }
@@ -279,7 +279,7 @@ pub(crate) struct Scratch {
     pub(crate) accum: Vec<Vec<Vec3>>,
     /// The order of the tile's pixels for its camera rays ([`cell_order`]), and the tile size
     /// it was made for.
-    order: (Vec<u32>, (u32, u32)),
+    order: (Vec<(u32, u32)>, (u32, u32)),
 }
 
 /// Whether some term of `pipeline` reads the light arriving on a surface of `material`: where
@@ -442,19 +442,39 @@ fn camera_system(
     camera: &Camera,
     image: &ImageSettings,
     tile: Tile,
-    order: &[u32],
+    order: &[(u32, u32)],
     range: std::ops::Range<usize>,
     out: &mut Rays,
 ) {
     let spp = image.samples.max(1);
     let weight = Vec3::splat(1.0 / spp as f32);
-    for k in range {
-        let (pixel, s) = (order[k / spp as usize], (k % spp as usize) as u32);
-        let (i, j) = (pixel % tile.w, pixel / tile.w);
-        let (ox, oy) = sample_offset(s, spp);
-        let (px, py) = ((tile.x0 + i) as f32 + ox, (tile.y0 + j) as f32 + oy);
-        let dir = camera.direction(px, py, image.width, image.height);
-        out.push(camera.origin, NO_SKIP, dir, weight, pixel, 0, CREDIT_OWN);
+    // Eight rays at a time; the columns start empty, so each eight fill a packet.
+    assert!(out.is_empty(), "camera rays go into empty columns");
+    // The pixel and sample of lane `range.start`, then one sample after another.
+    let spp = spp as usize;
+    let (mut at, mut s) = (range.start / spp, range.start % spp);
+    for start in range.clone().step_by(PACKET) {
+        let lanes = (range.end - start).min(PACKET);
+        let (mut px, mut py, mut pixels) = ([0.0f32; PACKET], [0.0f32; PACKET], [0u32; PACKET]);
+        for j in 0..lanes {
+            let (i, row) = order[at];
+            let (ox, oy) = sample_offset(s as u32, spp as u32);
+            (px[j], py[j], pixels[j]) = ((tile.x0 + i) as f32 + ox, (tile.y0 + row) as f32 + oy, row * tile.w + i);
+            s += 1;
+            if s == spp {
+                (at, s) = (at + 1, 0);
+            }
+        }
+        let dirs = camera.directions(px, py, image.width, image.height);
+        out.dir.push_packet(&dirs, lanes);
+        for &pixel in &pixels[..lanes] {
+            out.origin.push(camera.origin);
+            out.skip.push(NO_SKIP);
+            out.weight.push(weight);
+            out.pixel.push(pixel);
+            out.depth.push(0);
+            out.credit.push(CREDIT_OWN);
+        }
     }
 }
 
@@ -546,11 +566,12 @@ mod tests {
         for w in 1..=TILE_WIDTH {
             for h in 1..=TILE {
                 cell_order(w, h, &mut order);
-                let mut seen = order.clone();
+                let mut seen: Vec<u32> = order.iter().map(|&(x, y)| y * w + x).collect();
                 seen.sort();
                 assert_eq!(seen, (0..w * h).collect::<Vec<_>>(), "{w} x {h}");
+                assert!(order.iter().all(|&(x, y)| x < w && y < h), "{w} x {h}");
                 // Each run of a cell's pixels stays within one cell.
-                let cell = |p: u32| ((p % w) / CELL, (p / w) / CELL);
+                let cell = |p: (u32, u32)| (p.0 / CELL, p.1 / CELL);
                 let changes = order.windows(2).filter(|p| cell(p[0]) != cell(p[1])).count();
                 assert_eq!(changes + 1, (w.div_ceil(CELL) * h.div_ceil(CELL)) as usize, "{w} x {h}: cells");
             }

@@ -112,7 +112,8 @@ impl Term for Phong {
                     continue;
                 }
                 for (j, lane) in group.lanes(active | alone) {
-                    let add = if active & (1 << j) != 0 { lanes::lane(&colour, j) } else { self.lane(ctx, chunk, lane) };
+                    let add =
+                        if active & (1 << j) != 0 { lanes::lane(&colour, j) } else { self.lane(ctx, chunk, lane) };
                     out.add(lane, add);
                 }
             } else {
