@@ -43,6 +43,25 @@ pub(crate) fn nonzero(v: &V3) -> f32x8 {
     !(v[0].cmp_eq(f32x8::ZERO) & v[1].cmp_eq(f32x8::ZERO) & v[2].cmp_eq(f32x8::ZERO))
 }
 
+/// `u − 2 (n·u) n` lane by lane ([`lancer_core::optics::reflect`]'s bits).
+#[inline(always)]
+pub(crate) fn reflect(u: &V3, n: &V3) -> V3 {
+    let k = f32x8::splat(2.0) * dot(n, u);
+    std::array::from_fn(|a| u[a] - k * n[a])
+}
+
+/// [`crate::mirror_direction`] lane by lane: the mirror direction about the shading normal
+/// `shading`, or about the geometric `normal` where that one would not leave on the side the
+/// ray came from.
+#[inline(always)]
+pub(crate) fn mirror_direction(u: &V3, shading: &V3, normal: &V3) -> V3 {
+    use wide::{CmpGt, CmpLt};
+    let r = reflect(u, shading);
+    let keep = !(dot(&r, normal).cmp_gt(f32x8::ZERO) ^ dot(u, normal).cmp_lt(f32x8::ZERO));
+    let about_normal = reflect(u, normal);
+    std::array::from_fn(|a| keep.blend(r[a], about_normal[a]))
+}
+
 /// Lane `j` of `v`.
 #[inline(always)]
 pub(crate) fn lane(v: &V3, j: usize) -> Vec3 {
@@ -115,6 +134,24 @@ impl Group {
             }
         }
         (value, above)
+    }
+
+    /// The hit points, geometric normals, error bounds and objects of the lanes (a lane past
+    /// the chunk's end has no object).
+    #[inline(always)]
+    pub(crate) fn surface(&self, hits: &Hits) -> (V3, V3, [f32; PACKET], [u32; PACKET]) {
+        let p = self.base / PACKET;
+        let (mut error, mut object) = ([0.0f32; PACKET], [NO_HIT; PACKET]);
+        for j in 0..self.len {
+            (error[j], object[j]) = (hits.error[self.base + j], hits.object[self.base + j]);
+        }
+        (load(&hits.point.packets()[p]), load(&hits.normal.packets()[p]), error, object)
+    }
+
+    /// The lanes whose ray's children are within the depth limit `max_depth`.
+    #[inline(always)]
+    pub(crate) fn may_spawn(&self, rays: &Rays, max_depth: u8) -> u8 {
+        (0..self.len).filter(|&j| rays.depth[self.base + j] < max_depth).fold(0u8, |m, j| m | 1 << j)
     }
 
     /// `Col_Ω` of the lanes.

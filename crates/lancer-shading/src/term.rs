@@ -154,6 +154,37 @@ impl TermOutput<'_> {
         }
     }
 
+    /// [`TermOutput::spawn`] for the lanes of the group from `base` (a packet's first lane) set
+    /// in `bits`, in lane order: children from `origin` (and ignoring `skip`) along `dir`, their
+    /// weights `factor` times the parents' made eight lanes at a time, with the same bits.
+    #[inline(always)]
+    pub(crate) fn spawn_lanes(
+        &mut self,
+        base: usize,
+        bits: u8,
+        origin: &lancer_core::rays::Packet,
+        skip: &[u32; 8],
+        dir: &crate::lanes::V3,
+        factor: &crate::lanes::V3,
+    ) {
+        let weight = crate::lanes::load(&self.rays.weight.packets()[base / lancer_core::rays::PACKET]);
+        let term = wide::f32x8::splat(self.weight);
+        let weight = std::array::from_fn::<_, 3, _>(|a| term * weight[a] * factor[a]);
+        let mut bits = bits;
+        while bits != 0 {
+            let j = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let (lane, weight) = (base + j, crate::lanes::lane(&weight, j));
+            if !self.can_spawn(lane) || weight == Vec3::ZERO {
+                continue;
+            }
+            let credit = self.credit(lane);
+            let from = Vec3::new(origin[0][j], origin[1][j], origin[2][j]);
+            let dir = crate::lanes::lane(dir, j);
+            self.next.push(from, skip[j], dir, weight, self.rays.pixel[lane], self.rays.depth[lane] + 1, credit);
+        }
+    }
+
     /// Whether a child of `lane` would be within the depth limit.
     #[inline]
     pub fn can_spawn(&self, lane: usize) -> bool {

@@ -11,8 +11,10 @@
 //! terms = ["ambient", "diffuse", "specular", "mirror"]
 //! ```
 
-use glam::Vec3;
 
+use lancer_core::rays::PACKET;
+
+use crate::lanes::{self, Group};
 use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `mirror`, variant `constant`.
@@ -45,15 +47,26 @@ impl Term for Mirror {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
-        for lane in chunk.hit_lanes() {
-            let m = ctx.material(chunk.hits, lane);
-            if m.spec <= 0.0 || !out.can_spawn(lane) {
+        // Eight lanes at a time: the mirror directions and where the children start, with the
+        // bits `mirror_direction` and `Geometry::spawn` give lane by lane.
+        for group in Group::all(chunk.hits) {
+            let (spec, shiny) = group.param(ctx, chunk.hits, |m| m.spec);
+            let active = shiny & group.may_spawn(chunk.rays, out.max_depth);
+            if active == 0 {
                 continue;
             }
-            let hit = ctx.hit(chunk.hits, lane);
-            let u_r = crate::mirror_direction(&hit, chunk.rays.dir.at(lane));
-            let from = ctx.geometry.spawn(&hit, u_r);
-            out.spawn(lane, from, u_r, Vec3::splat(m.spec));
+            let (point, normal, error, object) = group.surface(chunk.hits);
+            let shading = lanes::load(&chunk.hits.shading.packets()[group.base / PACKET]);
+            let u_r = lanes::mirror_direction(&group.dir(chunk.rays), &shading, &normal);
+            let (origin, skip) = ctx.geometry.spawn_packet(
+                &point.map(|c| c.to_array()),
+                &normal.map(|c| c.to_array()),
+                &error,
+                &object,
+                &u_r.map(|c| c.to_array()),
+            );
+            let spec = wide::f32x8::new(spec);
+            out.spawn_lanes(group.base, active, &origin, &skip, &u_r, &[spec; 3]);
         }
     }
 }
