@@ -11,7 +11,6 @@
 //! terms = ["ambient", "diffuse", "specular", "mirror"]
 //! ```
 
-
 use lancer_core::rays::PACKET;
 
 use crate::lanes::{self, Group};
