@@ -9,9 +9,6 @@ use wide::{CmpEq, f32x8};
 /// Three axes of eight lanes.
 pub(crate) type V3 = [f32x8; 3];
 
-/// Every bit set: a lane's "true".
-const TRUE: f32 = f32::from_bits(u32::MAX);
-
 /// The packet as three registers.
 #[inline(always)]
 pub(crate) fn load(p: &Packet) -> V3 {
@@ -34,7 +31,20 @@ pub(crate) fn neg(x: f32x8) -> f32x8 {
 /// The lanes whose bit is set in `bits`, as a mask.
 #[inline(always)]
 pub(crate) fn mask(bits: u8) -> f32x8 {
-    f32x8::new(std::array::from_fn(|j| if bits & (1 << j) != 0 { TRUE } else { 0.0 }))
+    f32x8::new(std::array::from_fn(|j| truth((bits >> j) & 1 != 0)))
+}
+
+/// A lane's mask value for `b`, with no branch: all bits set for true, none for false.
+#[inline(always)]
+pub(crate) fn truth(b: bool) -> f32 {
+    f32::from_bits(u32::from(b).wrapping_neg())
+}
+
+/// Bit `j` set where `on(j)` for the first `len` lanes, with no branch per lane (lanes whose
+/// hit or miss alternates would mispredict one).
+#[inline(always)]
+pub(crate) fn bits(len: usize, on: impl Fn(usize) -> bool) -> u8 {
+    (0..len).fold(0u8, |m, j| m | (u8::from(on(j)) << j))
 }
 
 /// `v != Vec3::ZERO` lane by lane (a NaN axis is not zero).
@@ -100,7 +110,8 @@ impl Group {
         let n = hits.object.len();
         (0..n).step_by(PACKET).map(move |base| {
             let len = (n - base).min(PACKET);
-            let hit = (0..len).filter(|&j| hits.object[base + j] != NO_HIT).fold(0u8, |m, j| m | 1 << j);
+            let objects = &hits.object[base..base + len];
+            let hit = bits(len, |j| objects[j] != NO_HIT);
             Group { base, len, hit }
         })
     }
@@ -126,12 +137,16 @@ impl Group {
         hits: &Hits,
         param: impl Fn(&lancer_core::Material) -> f32,
     ) -> ([f32; PACKET], u8) {
+        // Every lane, with no branch on hit or miss (a lane with no hit reads material 0, and
+        // keeps 0).
         let (mut value, mut above) = ([0.0f32; PACKET], 0u8);
-        for (j, lane) in self.lanes(self.hit) {
-            value[j] = param(ctx.material(hits, lane));
-            if value[j] > 0.0 {
-                above |= 1 << j;
-            }
+        let indices = &hits.material[self.base..self.base + self.len];
+        for j in 0..self.len {
+            let hit = (self.hit >> j) & 1 != 0;
+            let material = if hit { indices[j] } else { 0 };
+            let v = ctx.materials.get(material as usize).map_or(0.0, &param);
+            value[j] = if hit { v } else { 0.0 };
+            above |= u8::from(hit & (v > 0.0)) << j;
         }
         (value, above)
     }
@@ -151,7 +166,8 @@ impl Group {
     /// The lanes whose ray's children are within the depth limit `max_depth`.
     #[inline(always)]
     pub(crate) fn may_spawn(&self, rays: &Rays, max_depth: u8) -> u8 {
-        (0..self.len).filter(|&j| rays.depth[self.base + j] < max_depth).fold(0u8, |m, j| m | 1 << j)
+        let depth = &rays.depth[self.base..self.base + self.len];
+        bits(self.len, |j| depth[j] < max_depth)
     }
 
     /// `Col_Ω` of the lanes.
@@ -164,8 +180,8 @@ impl Group {
     #[inline(always)]
     pub(crate) fn facing(&self, hits: &Hits) -> V3 {
         let shading = load(&hits.shading.packets()[self.base / PACKET]);
-        let front =
-            f32x8::new(std::array::from_fn(|j| if j < self.len && hits.front[self.base + j] { TRUE } else { 0.0 }));
+        let fronts = &hits.front[self.base..self.base + self.len];
+        let front = f32x8::new(std::array::from_fn(|j| truth(fronts.get(j).copied().unwrap_or(false))));
         shading.map(|c| front.blend(c, neg(c)))
     }
 

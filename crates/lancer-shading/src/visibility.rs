@@ -9,9 +9,6 @@ use wide::{CmpGt, CmpLe, CmpLt, f32x8};
 use crate::shadow::BLOCK;
 use crate::{HitBlock, Pipeline, ShadeContext, ShadowContext};
 
-/// Every bit set: a lane's "true".
-const TRUE: f32 = f32::from_bits(u32::MAX);
-
 /// For every hit on which some term reads lights ([`crate::Term::reads_lights`], by material:
 /// `lit`) and every light: the direction to the light and the light arriving through the
 /// pipeline's shadow model. Lights behind the surface (`N·w <= 0`, the normal facing the ray)
@@ -32,11 +29,13 @@ pub(crate) fn visibility_system(
         for start in (0..n).step_by(BLOCK) {
             let end = (start + BLOCK).min(n);
             // The lanes with a hit some term reads lights on, a bit per lane of each group.
+            // (No branch per lane: a lane with no hit reads material 0's entry and drops it.)
             let mut alive = [0u8; BLOCK / PACKET];
             for lane in start..end {
-                if hits.object[lane] != NO_HIT && lit[hits.material[lane] as usize] {
-                    alive[(lane - start) / PACKET] |= 1 << (lane % PACKET);
-                }
+                let hit = hits.object[lane] != NO_HIT;
+                let material = if hit { hits.material[lane] as usize } else { 0 };
+                let on = hit & lit.get(material).copied().unwrap_or(false);
+                alive[(lane - start) / PACKET] |= u8::from(on) << (lane % PACKET);
             }
             for (k, light) in ctx.lights.iter().enumerate() {
                 block.clear();
@@ -85,9 +84,9 @@ fn toward_light(
     let (mut error, mut object, mut front) = ([0.0f32; PACKET], [NO_HIT; PACKET], [0.0f32; PACKET]);
     for j in 0..lanes {
         (error[j], object[j]) = (hits.error[base + j], hits.object[base + j]);
-        front[j] = if hits.front[base + j] { TRUE } else { 0.0 };
+        front[j] = crate::lanes::truth(hits.front[base + j]);
     }
-    let live = f32x8::new(std::array::from_fn(|j| if alive & (1 << j) != 0 { TRUE } else { 0.0 }));
+    let live = crate::lanes::mask(alive);
     let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let d: [f32x8; 3] = std::array::from_fn(|a| f32x8::splat(target[a]) - point[a]);
     let length = dot(&d, &d).sqrt();
