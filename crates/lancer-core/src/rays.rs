@@ -20,6 +20,12 @@ pub const PACKET: usize = 8;
 /// Eight lanes of vectors axis by axis: `[x; 8]`, `[y; 8]`, `[z; 8]`.
 pub type Packet = [[f32; PACKET]; 3];
 
+/// Lane `k` of a packet.
+#[inline(always)]
+pub fn lane(packet: &Packet, k: usize) -> Vec3 {
+    Vec3::new(packet[0][k], packet[1][k], packet[2][k])
+}
+
 /// A column of vectors stored eight lanes to a [`Packet`], axis by axis within it: a system
 /// loads an axis of eight lanes at once, and one lane's three coordinates still sit together
 /// (one bounds check, one cache line). [`Vec3s::at`] reads a lane as a `Vec3`. The lanes of the
@@ -53,8 +59,7 @@ impl Vec3s {
     #[inline(always)]
     pub fn at(&self, lane: usize) -> Vec3 {
         debug_assert!(lane < self.len, "lane {lane} of {}", self.len);
-        let (p, k) = (&self.packets[lane / PACKET], lane % PACKET);
-        Vec3::new(p[0][k], p[1][k], p[2][k])
+        self::lane(&self.packets[lane / PACKET], lane % PACKET)
     }
 
     /// Writes the vector of `lane` (checked as [`Vec3s::at`] is).
@@ -78,11 +83,11 @@ impl Vec3s {
         self.len += 1;
     }
 
-    /// Appends the first `lanes` lanes of `packet` (at most [`PACKET`]) to a column that ends
-    /// at a packet's end.
+    /// Appends the first `lanes` lanes of `packet` (1 to [`PACKET`]) to a column that ends at a
+    /// packet's end.
     #[inline]
     pub fn push_packet(&mut self, packet: &Packet, lanes: usize) {
-        assert!(self.len.is_multiple_of(PACKET) && lanes <= PACKET, "{lanes} lanes after {}", self.len);
+        assert!(self.len.is_multiple_of(PACKET) && (1..=PACKET).contains(&lanes), "{lanes} lanes after {}", self.len);
         self.packets.push(*packet);
         self.len += lanes;
     }
@@ -304,10 +309,11 @@ impl Hits {
     }
 }
 
-/// Light arriving at each lane's hit, `lights` entries per lane (written by the visibility system).
+/// Light arriving at each lane's hit from each light: a packet column per light (written by the
+/// visibility system).
 #[derive(Clone, Debug, Default)]
 pub struct LightSamples {
-    /// Number of lights.
+    /// Number of lights (the length of `w` and of `incoming`).
     pub lights: usize,
     /// Per light (in scene order), each lane's unit direction from its hit towards the light
     /// (`w`).
@@ -367,6 +373,24 @@ mod tests {
             let want: Vec<Vec3> = (0..before).map(|i| lane(100 + i)).chain(range.map(lane)).collect();
             assert_eq!(w.iter().collect::<Vec<_>>(), want);
         }
+        // Onto a column that ends at a packet's end: whole packets, lane by lane, a packet.
+        let mut w = Vec3s::default();
+        (0..8).for_each(|i| w.push(lane(100 + i)));
+        w.extend_from(&v, 8..21);
+        w.extend_from(&v, 0..3);
+        w.push_packet(&[[1.0; PACKET], [2.0; PACKET], [3.0; PACKET]], 5);
+        let want: Vec<Vec3> = (0..8)
+            .map(|i| lane(100 + i))
+            .chain((8..21).map(lane))
+            .chain((0..3).map(lane))
+            .chain([Vec3::new(1.0, 2.0, 3.0); 5])
+            .collect();
+        assert_eq!(w.iter().collect::<Vec<_>>(), want);
+        // Shrunk inside a packet and grown again: the lanes past the cut are the new value, not
+        // what they held.
+        w.resize(10, Vec3::ZERO);
+        w.resize(12, Vec3::NEG_ONE);
+        assert_eq!(w.iter().skip(10).collect::<Vec<_>>(), [Vec3::NEG_ONE; 2]);
         // Growing fills new lanes, shrinking keeps the first ones, `set` writes one lane.
         v.resize(40, Vec3::ONE);
         assert!((0..29).all(|i| v.at(i) == lane(i)) && (29..40).all(|i| v.at(i) == Vec3::ONE));

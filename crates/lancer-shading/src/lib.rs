@@ -28,5 +28,5 @@ pub use registry::{
     ModelError, NamedShadow, NamedTerm, Pipeline, Registry, RegistryError, ShadowSpec, TermSpec, WEIGHT, nearest,
 };
 pub use render::{RenderOptions, TILE, WAVE, part_bands, render, render_prepared};
-pub use shadow::{BLOCK, HitBlock, ShadowContext, ShadowModel};
+pub use shadow::{HitBlock, ShadowContext, ShadowModel};
 pub use term::{Chunk, Note, NoteValue, ShadeContext, Term, TermOutput, lit_by, mirror_direction, sum_lights};

@@ -79,15 +79,25 @@ impl<'a> ShadowContext<'a> {
     /// coincide.
     #[inline]
     pub fn toward(&self, at: &Hit, target: Vec3) -> Option<(Vec3, f32)> {
-        let d = target - at.point;
-        let dist = d.length();
-        (dist > 0.0 && dist.is_finite()).then(|| (d / dist, dist))
+        toward(at.point, target)
     }
 }
 
+/// The unit direction and distance from `point` to `target`; `None` if they coincide (or the
+/// distance is not finite).
+#[inline]
+fn toward(point: Vec3, target: Vec3) -> Option<(Vec3, f32)> {
+    let d = target - point;
+    let dist = d.length();
+    (dist > 0.0 && dist.is_finite()).then(|| (d / dist, dist))
+}
+
 /// The most hits the visibility system hands a shadow model at once
-/// ([`ShadowModel::transmittance_each`]), and the block the built-in models trace together.
-pub const BLOCK: usize = 64;
+/// ([`ShadowModel::transmittance_each`], [`HitBlock::CAPACITY`]), and the block the built-in
+/// models trace together.
+pub(crate) const BLOCK: usize = 64;
+// Whole packets.
+const _: () = assert!(BLOCK.is_multiple_of(PACKET));
 
 /// Entry `i` is `i`: the map of a block whose rays are all traced, in place.
 const IN_PLACE: [usize; BLOCK] = {
@@ -108,6 +118,8 @@ const IN_PLACE: [usize; BLOCK] = {
 /// at a time.
 pub struct HitBlock<'a> {
     hits: &'a Hits,
+    /// The point the straight rays go to.
+    target: Vec3,
     len: usize,
     pub(crate) lane: [u32; BLOCK],
     pub(crate) origin: [Packet; BLOCK / PACKET],
@@ -118,10 +130,14 @@ pub struct HitBlock<'a> {
 }
 
 impl<'a> HitBlock<'a> {
-    /// An empty block over the hits of a chunk.
-    pub fn empty(hits: &'a Hits) -> HitBlock<'a> {
+    /// The most hits a block holds.
+    pub const CAPACITY: usize = BLOCK;
+
+    /// An empty block over the hits of a chunk, for straight rays towards `target`.
+    pub fn empty(hits: &'a Hits, target: Vec3) -> HitBlock<'a> {
         HitBlock {
             hits,
+            target,
             len: 0,
             lane: [0; BLOCK],
             origin: [[[0.0; PACKET]; 3]; BLOCK / PACKET],
@@ -132,26 +148,31 @@ impl<'a> HitBlock<'a> {
         }
     }
 
-    /// The hits of `lanes` (at most [`BLOCK`], each with a hit) with their straight rays
-    /// towards `target`, one by one. A hit at the target itself gets no ray: distance and
+    /// The hits of `lanes` (at most [`HitBlock::CAPACITY`], each with a hit) with their straight
+    /// rays towards `target`, one by one. A hit at the target itself gets no ray: distance and
     /// length left 0.
     pub fn toward(ctx: &ShadeContext<'_>, hits: &'a Hits, lanes: &[usize], target: Vec3) -> HitBlock<'a> {
         assert!(lanes.len() <= BLOCK, "{} hits in a block of {BLOCK}", lanes.len());
-        let mut block = HitBlock::empty(hits);
+        let mut block = HitBlock::empty(hits, target);
         for &lane in lanes {
+            assert!(hits.object[lane] != lancer_core::rays::NO_HIT, "lane {lane} has no hit");
             let at = ctx.hit(hits, lane);
-            let d = target - at.point;
-            let dist = d.length();
-            let (from, dir, dist, left) = if dist > 0.0 && dist.is_finite() {
-                let dir = d / dist;
-                let from = ctx.geometry.spawn(&at, dir);
-                (from, dir, dist, dist - (from.point - at.point).dot(dir))
-            } else {
-                (Origin::free(at.point), Vec3::ZERO, 0.0, 0.0)
+            let (from, dir, dist, left) = match toward(at.point, target) {
+                Some((dir, dist)) => {
+                    let from = ctx.geometry.spawn(&at, dir);
+                    (from, dir, dist, dist - (from.point - at.point).dot(dir))
+                }
+                None => (Origin::free(at.point), Vec3::ZERO, 0.0, 0.0),
             };
             block.push(lane, from, dir, dist, left);
         }
         block
+    }
+
+    /// The point the block's straight rays go to.
+    #[inline]
+    pub fn target(&self) -> Vec3 {
+        self.target
     }
 
     /// Appends an entry.
@@ -165,10 +186,10 @@ impl<'a> HitBlock<'a> {
         self.len += 1;
     }
 
-    /// Removes every entry.
+    /// Removes every entry; the rays to come go to `target`.
     #[inline]
-    pub(crate) fn clear(&mut self) {
-        self.len = 0;
+    pub(crate) fn clear(&mut self, target: Vec3) {
+        (self.len, self.target) = (0, target);
     }
 
     /// Number of hits.
@@ -196,11 +217,18 @@ impl<'a> HitBlock<'a> {
         self.lane[i] as usize
     }
 
+    /// Where hit `i`'s straight ray starts, and the object it ignores.
+    #[inline]
+    pub fn origin(&self, i: usize) -> Origin {
+        assert!(i < self.len, "hit {i} of {}", self.len);
+        Origin { point: lancer_core::rays::lane(&self.origin[i / PACKET], i % PACKET), skip: self.skip[i] }
+    }
+
     /// The unit direction of hit `i`'s straight ray.
     #[inline]
     pub fn dir(&self, i: usize) -> Vec3 {
-        let (p, k) = (&self.dir[i / PACKET], i % PACKET);
-        Vec3::new(p[0][k], p[1][k], p[2][k])
+        assert!(i < self.len, "hit {i} of {}", self.len);
+        lancer_core::rays::lane(&self.dir[i / PACKET], i % PACKET)
     }
 
     /// The distance from hit `i`'s point to the target (0: no ray).
@@ -229,12 +257,11 @@ impl<'a> HitBlock<'a> {
             };
             return traced(lines, &IN_PLACE[..n]);
         }
-        let mut kept = HitBlock::empty(self.hits);
+        let mut kept = HitBlock::empty(self.hits, self.target);
         let mut which = [0usize; BLOCK];
         for i in (0..n).filter(|&i| keep(i)) {
-            let from = Origin { point: self.origin_of(i), skip: self.skip[i] };
             which[kept.len] = i;
-            kept.push(self.lane[i] as usize, from, self.dir(i), self.dist[i], self.left[i]);
+            kept.push(self.lane[i] as usize, self.origin(i), self.dir(i), self.dist[i], self.left[i]);
         }
         let m = kept.len;
         let lines = Lines {
@@ -243,11 +270,6 @@ impl<'a> HitBlock<'a> {
             skip: &kept.skip[..m],
         };
         traced(lines, &which[..m])
-    }
-
-    fn origin_of(&self, i: usize) -> Vec3 {
-        let (p, k) = (&self.origin[i / PACKET], i % PACKET);
-        Vec3::new(p[0][k], p[1][k], p[2][k])
     }
 }
 
@@ -275,7 +297,7 @@ pub trait ShadowModel: Send + Sync {
 
     /// [`ShadowModel::transmittance`] of `light` to each hit of `block`, into `out` (as long):
     /// the visibility system asks for a block of hits at a time, each with its straight ray
-    /// towards the light's point already made. The default asks for each hit in turn; a model
+    /// towards the light's point (`block.target()`, which is `light.at`) already made. The default asks for each hit in turn; a model
     /// may trace the rays together (with [`ShadowContext::occluders`]) as long as each hit gets
     /// what `transmittance` gives it.
     fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, light: &Light, out: &mut [Vec3]) {

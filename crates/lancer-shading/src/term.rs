@@ -179,7 +179,7 @@ impl TermOutput<'_> {
                 continue;
             }
             let credit = self.credit(lane);
-            let from = Vec3::new(origin[0][j], origin[1][j], origin[2][j]);
+            let from = lancer_core::rays::lane(origin, j);
             let dir = crate::lanes::lane(dir, j);
             self.next.push(from, skip[j], dir, weight, self.rays.pixel[lane], self.rays.depth[lane] + 1, credit);
         }

@@ -6,6 +6,8 @@ use lancer_core::rays::{Hits, LightSamples, NO_HIT, PACKET};
 use lancer_shapes::Origin;
 use wide::{CmpGt, CmpLe, CmpLt, f32x8};
 
+use crate::lanes::{self, Group, V3};
+
 use crate::shadow::BLOCK;
 use crate::{HitBlock, Pipeline, ShadeContext, ShadowContext};
 
@@ -25,24 +27,29 @@ pub(crate) fn visibility_system(
     let mut out = [Vec3::ZERO; BLOCK];
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         let n = hits.object.len();
-        let mut block = HitBlock::empty(hits);
+        let mut block = HitBlock::empty(hits, Vec3::ZERO);
         for start in (0..n).step_by(BLOCK) {
             let end = (start + BLOCK).min(n);
-            // The lanes with a hit some term reads lights on, a bit per lane of each group.
-            // (No branch per lane: a lane with no hit reads material 0's entry and drops it.)
-            let mut alive = [0u8; BLOCK / PACKET];
-            for lane in start..end {
-                let hit = hits.object[lane] != NO_HIT;
-                let material = if hit { hits.material[lane] as usize } else { 0 };
-                let on = hit & lit.get(material).copied().unwrap_or(false);
-                alive[(lane - start) / PACKET] |= u8::from(on) << (lane % PACKET);
+            // The block's groups with a hit some term reads lights on, loaded once for every
+            // light. (No branch per lane: a lane with no hit reads material 0's entry and
+            // drops it.)
+            let mut surfaces = [None; BLOCK / PACKET];
+            for (g, base) in (start..end).step_by(PACKET).enumerate() {
+                let group = Group { base, len: (end - base).min(PACKET), hit: 0 };
+                let alive = lanes::bits(group.len, |j| {
+                    let lane = base + j;
+                    let hit = hits.object[lane] != NO_HIT;
+                    let material = if hit { hits.material[lane] as usize } else { 0 };
+                    hit & lit.get(material).copied().unwrap_or(false)
+                });
+                if alive != 0 {
+                    surfaces[g] = Some(Surface::of(group, alive, hits));
+                }
             }
             for (k, light) in ctx.lights.iter().enumerate() {
-                block.clear();
-                for (g, &alive) in alive.iter().enumerate().take((end - start).div_ceil(PACKET)) {
-                    if alive != 0 {
-                        toward_light(ctx, hits, start + g * PACKET, alive, light.at, samples, k, &mut block);
-                    }
+                block.clear(light.at);
+                for surface in surfaces.iter().flatten() {
+                    toward_light(ctx, surface, light.at, samples, k, &mut block);
                 }
                 if block.is_empty() {
                     continue;
@@ -57,54 +64,55 @@ pub(crate) fn visibility_system(
     }
 }
 
-/// The eight lanes from `base` (a packet's first) whose bit is set in `alive`, towards the light
-/// at `target`: `w`, the unit direction to the light (`try_normalize`'s bits), into the samples
-/// of light `k`; and each lane the light reaches the front of (`N·w > 0`), with its straight
-/// shadow ray (`toward` and `Geometry::spawn`'s bits), into `block`.
-#[allow(clippy::too_many_arguments)]
+/// Eight lanes of hits as the visibility system needs them, whatever the light.
+#[derive(Clone, Copy)]
+struct Surface {
+    base: usize,
+    /// The lanes some term reads lights on.
+    alive: u8,
+    point: V3,
+    normal: V3,
+    /// The shading normal facing the ray.
+    facing: V3,
+    error: [f32; PACKET],
+    object: [u32; PACKET],
+}
+
+impl Surface {
+    #[inline(always)]
+    fn of(group: Group, alive: u8, hits: &Hits) -> Surface {
+        let (point, normal, error, object) = group.surface(hits);
+        Surface { base: group.base, alive, point, normal, facing: group.facing(hits), error, object }
+    }
+}
+
+/// The lanes of `s` some term reads lights on, towards the light at `target`: `w`, the unit
+/// direction to the light (`try_normalize`'s bits), into the samples of light `k`; and each
+/// lane the light reaches the front of (`N·w > 0`), with its straight shadow ray (`toward` and
+/// `Geometry::spawn`'s bits), into `block`.
 #[inline(always)]
 fn toward_light(
     ctx: &ShadeContext<'_>,
-    hits: &Hits,
-    base: usize,
-    alive: u8,
+    s: &Surface,
     target: Vec3,
     samples: &mut LightSamples,
     k: usize,
     block: &mut HitBlock<'_>,
 ) {
-    let packet = base / PACKET;
-    let lanes = (hits.object.len() - base).min(PACKET);
-    let load = |p: &lancer_core::rays::Packet| p.map(f32x8::new);
-    let (point, normal, shading) = (
-        load(&hits.point.packets()[packet]),
-        load(&hits.normal.packets()[packet]),
-        load(&hits.shading.packets()[packet]),
-    );
-    let (mut error, mut object, mut front) = ([0.0f32; PACKET], [NO_HIT; PACKET], [0.0f32; PACKET]);
-    for j in 0..lanes {
-        (error[j], object[j]) = (hits.error[base + j], hits.object[base + j]);
-        front[j] = crate::lanes::truth(hits.front[base + j]);
-    }
-    let live = crate::lanes::mask(alive);
-    let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let d: [f32x8; 3] = std::array::from_fn(|a| f32x8::splat(target[a]) - point[a]);
-    let length = dot(&d, &d).sqrt();
+    let live = lanes::mask(s.alive);
+    let d: V3 = std::array::from_fn(|a| f32x8::splat(target[a]) - s.point[a]);
+    let length = lanes::dot(&d, &d).sqrt();
     // `try_normalize`: the reciprocal of the length, finite and positive.
     let rcp = f32x8::ONE / length;
     let normal_ok = rcp.abs().cmp_lt(f32x8::splat(f32::INFINITY)) & rcp.cmp_gt(f32x8::ZERO);
     let w = d.map(|c| c * rcp);
-    // The shading normal facing the ray (turned round by its sign bit on a back-face hit).
-    let front = f32x8::new(front);
-    let facing = shading.map(|c| front.blend(c, c ^ f32x8::splat(-0.0)));
-    let away = dot(&facing, &w).cmp_le(f32x8::ZERO);
-    let with_w = (live & normal_ok).move_mask();
-    let reached = (live & normal_ok & !away).move_mask();
-    if with_w != 0 {
+    let away = lanes::dot(&s.facing, &w).cmp_le(f32x8::ZERO);
+    let with_w = live & normal_ok;
+    if with_w.move_mask() != 0 {
         // The other lanes keep the zero `reset` gave them.
-        let kept = live & normal_ok;
-        samples.w[k].packets_mut()[packet] = w.map(|c| kept.blend(c, f32x8::ZERO).to_array());
+        samples.w[k].packets_mut()[s.base / PACKET] = w.map(|c| with_w.blend(c, f32x8::ZERO).to_array());
     }
+    let reached = (with_w & !away).move_mask();
     if reached == 0 {
         return;
     }
@@ -112,23 +120,22 @@ fn toward_light(
     let dir = d.map(|c| c / length);
     let dir_lanes = dir.map(|c| c.to_array());
     let (origin, skip) = ctx.geometry.spawn_packet(
-        &point.map(|c| c.to_array()),
-        &normal.map(|c| c.to_array()),
-        &error,
-        &object,
+        &s.point.map(|c| c.to_array()),
+        &s.normal.map(|c| c.to_array()),
+        &s.error,
+        &s.object,
         &dir_lanes,
     );
     let from = origin.map(f32x8::new);
-    let offset: [f32x8; 3] = std::array::from_fn(|a| from[a] - point[a]);
-    let left = (length - dot(&offset, &dir)).to_array();
+    let offset: V3 = std::array::from_fn(|a| from[a] - s.point[a]);
+    let left = (length - lanes::dot(&offset, &dir)).to_array();
     let length = length.to_array();
     let mut bits = reached;
     while bits != 0 {
         let j = bits.trailing_zeros() as usize;
         bits &= bits - 1;
-        let from = Origin { point: Vec3::new(origin[0][j], origin[1][j], origin[2][j]), skip: skip[j] };
-        let dir = Vec3::new(dir_lanes[0][j], dir_lanes[1][j], dir_lanes[2][j]);
-        block.push(base + j, from, dir, length[j], left[j]);
+        let from = Origin { point: lancer_core::rays::lane(&origin, j), skip: skip[j] };
+        block.push(s.base + j, from, lancer_core::rays::lane(&dir_lanes, j), length[j], left[j]);
     }
 }
 
@@ -181,18 +188,21 @@ mod tests {
         }
         let n = hits.object.len();
         let mut lit = 0;
-        for target in [Vec3::new(3.0, 8.0, -2.0), Vec3::new(-1.0, -4.0, 0.5), list[9].point] {
+        // (Lane 10 is alive: the last light sits on its hit point.)
+        for target in [Vec3::new(3.0, 8.0, -2.0), Vec3::new(-1.0, -4.0, 0.5), list[10].point] {
             let mut samples = LightSamples::default();
             samples.reset(n, 2);
             let mut got = Vec::new();
             for start in (0..n).step_by(BLOCK) {
-                let mut block = HitBlock::empty(&hits);
+                let mut block = HitBlock::empty(&hits, target);
                 for base in (start..(start + BLOCK).min(n)).step_by(PACKET) {
                     // Every lane with a hit but every third, as if no term read lights there.
-                    let alive = (0..PACKET.min(n - base))
-                        .filter(|&j| hits.object[base + j] != NO_HIT && (base + j) % 3 != 0)
-                        .fold(0u8, |bits, j| bits | 1 << j);
-                    super::toward_light(&scene, &hits, base, alive, target, &mut samples, 1, &mut block);
+                    let len = PACKET.min(n - base);
+                    let alive = crate::lanes::bits(len, |j| hits.object[base + j] != NO_HIT && (base + j) % 3 != 0);
+                    if alive != 0 {
+                        let surface = super::Surface::of(crate::lanes::Group { base, len, hit: 0 }, alive, &hits);
+                        super::toward_light(&scene, &surface, target, &mut samples, 1, &mut block);
+                    }
                 }
                 got.extend((0..block.len()).map(|i| {
                     let (p, k) = (i / PACKET, i % PACKET);
@@ -200,11 +210,18 @@ mod tests {
                     (block.lane(i), origin, block.skip[i], block.dir(i), block.dist(i), block.left(i))
                 }));
             }
+            // Lanes no term lights keep no direction, and light 0's samples are untouched.
+            for lane in (0..n).filter(|&l| hits.object[l] == NO_HIT || l % 3 == 0) {
+                assert_eq!(samples.w[1].at(lane), Vec3::ZERO, "lane {lane}: not lit, yet a direction");
+            }
+            assert!(samples.w[0].iter().chain(samples.incoming[0].iter()).all(|v| v == Vec3::ZERO));
             let mut want = Vec::new();
+            let mut at_light = 0;
             for lane in (0..n).filter(|&l| hits.object[l] != NO_HIT && l % 3 != 0) {
                 let bits = |v: Vec3| v.to_array().map(f32::to_bits);
                 let Some(w) = (target - hits.point.at(lane)).try_normalize() else {
                     assert_eq!(samples.w[1].at(lane), Vec3::ZERO, "lane {lane}: no direction");
+                    at_light += 1;
                     continue;
                 };
                 assert_eq!(bits(samples.w[1].at(lane)), bits(w), "lane {lane}");
@@ -216,6 +233,7 @@ mod tests {
                 want.push((lane, origin, alone.skip[0], alone.dir(0), alone.dist(0), alone.left(0)));
             }
             lit += want.len();
+            assert_eq!(at_light, usize::from(target == list[10].point), "hits at the light");
             let bits = |e: &(usize, Vec3, u32, Vec3, f32, f32)| {
                 (
                     e.0,

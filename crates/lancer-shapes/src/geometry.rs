@@ -447,8 +447,7 @@ impl Geometry {
         let outward = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]).cmp_gt(f32x8::ZERO);
         // Negated by the sign bit, as scalar `-` does (wide's `-c` is `0 − c`: +0 for 0).
         let side = n.map(|c| outward.blend(c, c ^ f32x8::splat(-0.0)));
-        // `max_element` as glam takes it: `if a > b { a } else { b }`.
-        let gt_max = |a: f32x8, b: f32x8| a.cmp_gt(b).blend(a, b);
+        use crate::stream::gt_max;
         let reach = gt_max(p[0].abs(), gt_max(p[1].abs(), p[2].abs()));
         let offset = (f32x8::new(*error) * f32x8::splat(OFFSET_MARGIN)).max(f32x8::splat(OFFSET_FLOOR))
             + reach * f32x8::splat(f32::EPSILON);
@@ -683,6 +682,76 @@ mod tests {
             })
             .collect();
         Geometry::new(objects)
+    }
+
+    #[test]
+    fn eight_spawns_at_once_have_the_bits_of_each_alone_lane_by_lane() {
+        // Each lane its own hit (on a plane, a disk, spheres, a cube, a torus: flat, convex and
+        // neither), leaving in, out and exactly along the surface, among lanes with no hit.
+        let place = |shape: Shape, at: Vec3, s: f32| {
+            Object::new(
+                shape,
+                Affine3A::from_scale_rotation_translation(Vec3::splat(s), Quat::from_rotation_y(0.3), at),
+                0,
+            )
+            .unwrap()
+        };
+        let g = Geometry::new(vec![
+            Object::new(Shape::Plane, Affine3A::IDENTITY, 0).unwrap(),
+            place(Shape::Disk, Vec3::new(3.0, 1.0, 0.0), 0.7),
+            place(Shape::Sphere, Vec3::new(-2.0, 1.0, 1.0), 1.0),
+            place(Shape::Cube, Vec3::new(0.0, 1.0, 3.0), 0.6),
+            place(Shape::Torus { minor: 0.3 }, Vec3::new(1.0, 0.5, -3.0), 1.2),
+            place(Shape::Sphere, Vec3::new(0.0, 0.0, 0.0), 1e-3),
+        ]);
+        let mut f = crate::testing::uniform(0x5EED_0F5A_A5E5_1234);
+        let mut hits = Vec::new();
+        while hits.len() < 400 {
+            let eye = Vec3::new(f(-8.0, 8.0), f(0.5, 8.0), f(-8.0, 8.0));
+            let aim = g.objects[(f(0.0, 6.0) as usize).min(5)].bounds().map_or(Vec3::ZERO, |b| (b.min + b.max) * 0.5);
+            if let Some(h) = g.closest_hit(Origin::free(eye), (aim - eye).normalize(), 0.0, f32::INFINITY) {
+                hits.push((h, eye));
+            }
+        }
+        let mut objects_seen = std::collections::HashSet::new();
+        for group in hits.chunks(8) {
+            // Lane 3 has no hit; lanes leave towards the eye, through the surface, along it.
+            let dirs: Vec<Vec3> = group
+                .iter()
+                .enumerate()
+                .map(|(k, (h, eye))| match k % 4 {
+                    0 => (*eye - h.point).normalize(),
+                    1 => -h.normal,
+                    2 if h.object == 0 => Vec3::X,
+                    _ => h.normal.any_orthonormal_vector(),
+                })
+                .collect();
+            let packet = |v: &dyn Fn(usize) -> Vec3| -> Packet {
+                std::array::from_fn(|a| std::array::from_fn(|k| if k < group.len() { v(k)[a] } else { 0.0 }))
+            };
+            let object: [u32; 8] =
+                std::array::from_fn(|k| if k == 3 || k >= group.len() { NO_SKIP } else { group[k].0.object });
+            let error = std::array::from_fn(|k| group.get(k).map_or(0.0, |h| h.0.error));
+            let (origins, skips) = g.spawn_packet(
+                &packet(&|k| group[k].0.point),
+                &packet(&|k| group[k].0.normal),
+                &error,
+                &object,
+                &packet(&|k| dirs[k]),
+            );
+            for (k, (h, _)) in group.iter().enumerate().filter(|&(k, _)| k != 3) {
+                let alone = g.spawn(h, dirs[k]);
+                let lane = Vec3::new(origins[0][k], origins[1][k], origins[2][k]);
+                assert_eq!(
+                    lane.to_array().map(f32::to_bits),
+                    alone.point.to_array().map(f32::to_bits),
+                    "lane {k}: {h:?}"
+                );
+                assert_eq!(skips[k], alone.skip, "lane {k}");
+                objects_seen.insert(h.object);
+            }
+        }
+        assert_eq!(objects_seen.len(), 6, "every object: {objects_seen:?}");
     }
 
     #[test]

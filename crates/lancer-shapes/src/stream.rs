@@ -167,7 +167,7 @@ pub(crate) fn closest_each(
 
 /// `if a > b { a } else { b }` lane by lane: glam's `max_element` step, NaN included.
 #[inline(always)]
-fn gt_max(a: Fx, b: Fx) -> Fx {
+pub(crate) fn gt_max(a: Fx, b: Fx) -> Fx {
     a.cmp_gt(b).blend(a, b)
 }
 

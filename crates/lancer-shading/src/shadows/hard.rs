@@ -31,7 +31,8 @@ impl ShadowModel for Hard {
         if ctx.blocked(at, dir, dist) { Vec3::ZERO } else { Vec3::ONE }
     }
 
-    fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, _: &Light, out: &mut [Vec3]) {
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, light: &Light, out: &mut [Vec3]) {
+        debug_assert_eq!(block.target(), light.at, "the block's rays go to the light");
         out[..block.len()].fill(Vec3::ONE);
         // The shadow rays `blocked` traces: every hit's but one at the light itself.
         block.rays_where(

@@ -20,7 +20,8 @@ mod tests {
     use lancer_core::{Light, Material};
     use lancer_shapes::{Geometry, Object, Origin, Shape};
 
-    use crate::{BLOCK, HitBlock, ParamValue, Params, Registry, ShadeContext, ShadowContext};
+    use crate::shadow::BLOCK;
+    use crate::{HitBlock, ParamValue, Params, Registry, ShadeContext, ShadowContext};
 
     #[test]
     fn every_model_gives_a_block_of_hits_what_each_hit_gets_alone() {
@@ -74,10 +75,16 @@ mod tests {
                 let light = Light { at, color: Vec3::ONE, intensity: 1.0, size };
                 let (each_ctx, alone_ctx) = (ShadowContext::new(&scene), ShadowContext::new(&scene));
                 let mut each = vec![Vec3::splat(7.0); hits.len()];
-                for start in (0..hits.len()).step_by(BLOCK) {
-                    let lanes: Vec<usize> = (start..(start + BLOCK).min(hits.len())).collect();
-                    let block = HitBlock::toward(&scene, &columns, &lanes, light.at);
-                    model.transmittance_each(&each_ctx, &block, &light, &mut each[start..start + lanes.len()]);
+                // Blocks of scattered lanes, as the visibility system makes them (the lanes a
+                // light reaches): even lanes, then odd ones.
+                let order: Vec<usize> = (0..hits.len()).step_by(2).chain((1..hits.len()).step_by(2)).collect();
+                for lanes in order.chunks(BLOCK) {
+                    let block = HitBlock::toward(&scene, &columns, lanes, light.at);
+                    let mut out = [Vec3::splat(7.0); BLOCK];
+                    model.transmittance_each(&each_ctx, &block, &light, &mut out[..lanes.len()]);
+                    for (&lane, got) in lanes.iter().zip(out) {
+                        each[lane] = got;
+                    }
                 }
                 for (hit, got) in hits.iter().zip(&each) {
                     let alone = model.transmittance(&alone_ctx, hit, &light);

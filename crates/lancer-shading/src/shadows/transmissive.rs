@@ -46,7 +46,8 @@ impl ShadowModel for Transmissive {
         }
     }
 
-    fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, _: &Light, out: &mut [Vec3]) {
+    fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, light: &Light, out: &mut [Vec3]) {
+        debug_assert_eq!(block.target(), light.at, "the block's rays go to the light");
         through_occluders_each(ctx, block, self.tint, out);
     }
 }

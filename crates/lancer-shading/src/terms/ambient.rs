@@ -39,7 +39,7 @@ impl Term for Ambient {
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         for group in Group::all(chunk.hits) {
-            let (ambi, active) = group.param(ctx, chunk.hits, |m| m.ambi);
+            let (ambi, active) = group.param(ctx, chunk.hits, |m| m.ambi, |a| a > 0.0);
             if active != 0 {
                 let (ambi, color) = (wide::f32x8::new(ambi), group.color(chunk.hits));
                 out.add_lanes(group.base, active, &color.map(|c| ambi * c));

@@ -46,7 +46,8 @@ impl Term for Lambert {
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         // Eight lanes at a time, `sum_lights`' arithmetic lane by lane (so the same bits).
         for group in Group::all(chunk.hits) {
-            let (diff, active) = group.param(ctx, chunk.hits, |m| m.diff);
+            // Skipped where `diff <= 0` (a NaN goes on, as lane by lane).
+            let (diff, active) = group.param(ctx, chunk.hits, |m| m.diff, |d| d > 0.0 || d.is_nan());
             if active == 0 {
                 continue;
             }

@@ -49,7 +49,8 @@ impl Term for Mirror {
         // Eight lanes at a time: the mirror directions and where the children start, with the
         // bits `mirror_direction` and `Geometry::spawn` give lane by lane.
         for group in Group::all(chunk.hits) {
-            let (spec, shiny) = group.param(ctx, chunk.hits, |m| m.spec);
+            // Skipped where `spec <= 0` (a NaN goes on, as lane by lane).
+            let (spec, shiny) = group.param(ctx, chunk.hits, |m| m.spec, |s| s > 0.0 || s.is_nan());
             let active = shiny & group.may_spawn(chunk.rays, out.max_depth);
             if active == 0 {
                 continue;

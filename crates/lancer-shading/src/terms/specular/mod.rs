@@ -37,8 +37,18 @@ pub fn half_vector_lobe(n: Vec3, w: Vec3, u: Vec3, e: f32) -> f32 {
 /// cheaper than `powf`; any other exponent goes to `powf`.
 #[inline]
 pub fn lobe(c: f32, e: f32) -> f32 {
+    match whole_power(e) {
+        Some(whole) => c.powi(whole as i32),
+        None => c.powf(e),
+    }
+}
+
+/// The whole number (at most 1024) the exponent `e` is but for the rounding of `shine`, which
+/// [`lobe`] computes by repeated multiplication; `None` for any other exponent.
+#[inline]
+pub fn whole_power(e: f32) -> Option<u32> {
     let whole = e.round();
-    if (e - whole).abs() <= 1e-4 * whole && whole <= 1024.0 { c.powi(whole as i32) } else { c.powf(e) }
+    ((e - whole).abs() <= 1e-4 * whole && whole <= 1024.0).then_some(whole as u32)
 }
 
 /// The optional `exponent` parameter shared by both Blinn variants.

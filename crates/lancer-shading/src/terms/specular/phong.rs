@@ -78,7 +78,7 @@ impl Term for Phong {
                     continue;
                 }
                 (spec[j], shine[j]) = (m.spec, m.shine);
-                match whole_power(1.0 / (1.0 - m.shine)) {
+                match super::whole_power(1.0 / (1.0 - m.shine)) {
                     Some(e) => (power[j], active) = (e, active | 1 << j),
                     None => alone |= 1 << j,
                 }
@@ -123,13 +123,6 @@ impl Term for Phong {
             }
         }
     }
-}
-
-/// The whole number `e` is (but for the rounding of `shine`), as [`super::lobe`] decides.
-#[inline]
-fn whole_power(e: f32) -> Option<u32> {
-    let whole = e.round();
-    ((e - whole).abs() <= 1e-4 * whole && whole <= 1024.0).then_some(whole as u32)
 }
 
 impl Phong {
