@@ -2,7 +2,7 @@
 //! direction to the light and the light arriving through the shadow model, eight lanes at once.
 
 use glam::Vec3;
-use lancer_core::rays::{Hits, LightSamples, NO_HIT, PACKET};
+use lancer_core::rays::{CHUNK_LANES, Hits, LightSamples, NO_HIT, PACKET};
 use lancer_shapes::Origin;
 use wide::{CmpGt, CmpLe, CmpLt, f32x8};
 
@@ -23,44 +23,61 @@ pub(crate) fn visibility_system(
     pipeline: &Pipeline,
     lit: &[bool],
 ) {
-    let shadows = &pipeline.shadows.model;
     let mut out = [Vec3::ZERO; BLOCK];
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         let n = hits.object.len();
+        // The lanes with a hit some term reads lights on, a bit per lane of each group. (No
+        // branch per lane: a lane with no hit reads material 0's entry and drops it.)
+        let mut alive = [0u8; CHUNK_LANES / PACKET];
+        for (g, base) in (0..n).step_by(PACKET).enumerate() {
+            alive[g] = lanes::bits((n - base).min(PACKET), |j| {
+                let lane = base + j;
+                let hit = hits.object[lane] != NO_HIT;
+                let material = if hit { hits.material[lane] as usize } else { 0 };
+                hit & lit.get(material).copied().unwrap_or(false)
+            });
+        }
         let mut block = HitBlock::empty(hits, Vec3::ZERO);
-        for start in (0..n).step_by(BLOCK) {
-            let end = (start + BLOCK).min(n);
-            // The block's groups with a hit some term reads lights on, loaded once for every
-            // light. (No branch per lane: a lane with no hit reads material 0's entry and
-            // drops it.)
-            let mut surfaces = [None; BLOCK / PACKET];
-            for (g, base) in (start..end).step_by(PACKET).enumerate() {
-                let group = Group { base, len: (end - base).min(PACKET), hit: 0 };
-                let alive = lanes::bits(group.len, |j| {
-                    let lane = base + j;
-                    let hit = hits.object[lane] != NO_HIT;
-                    let material = if hit { hits.material[lane] as usize } else { 0 };
-                    hit & lit.get(material).copied().unwrap_or(false)
-                });
-                if alive != 0 {
-                    surfaces[g] = Some(Surface::of(group, alive, hits));
-                }
-            }
-            for (k, light) in ctx.lights.iter().enumerate() {
-                block.clear(light.at);
-                for surface in surfaces.iter().flatten() {
-                    toward_light(ctx, surface, light.at, samples, k, &mut block);
-                }
-                if block.is_empty() {
+        for (k, light) in ctx.lights.iter().enumerate() {
+            // The hits the light reaches the front of, gathered over the chunk into blocks as
+            // full as they go (each hit gets the same answer in any block).
+            block.clear(light.at);
+            for (g, &alive) in alive.iter().enumerate().take(n.div_ceil(PACKET)) {
+                if alive == 0 {
                     continue;
                 }
-                let reached = block.len();
-                shadows.transmittance_each(shadow_ctx, &block, light, &mut out[..reached]);
-                for (i, through) in out[..reached].iter().enumerate() {
-                    samples.incoming[k].set(block.lane(i), light.radiance() * *through);
+                let base = g * PACKET;
+                let surface = Surface::of(Group { base, len: (n - base).min(PACKET), hit: 0 }, alive, hits);
+                toward_light(ctx, &surface, light.at, samples, k, &mut block);
+                if block.len() > BLOCK - PACKET {
+                    shade(shadow_ctx, pipeline, &block, light, samples, k, &mut out);
+                    block.clear(light.at);
                 }
             }
+            shade(shadow_ctx, pipeline, &block, light, samples, k, &mut out);
         }
+    }
+}
+
+/// The light arriving at each hit of `block` through the pipeline's shadow model, into the
+/// samples of light `k`.
+#[inline]
+fn shade(
+    shadow_ctx: &ShadowContext<'_>,
+    pipeline: &Pipeline,
+    block: &HitBlock<'_>,
+    light: &lancer_core::Light,
+    samples: &mut LightSamples,
+    k: usize,
+    out: &mut [Vec3; BLOCK],
+) {
+    if block.is_empty() {
+        return;
+    }
+    let reached = block.len();
+    pipeline.shadows.model.transmittance_each(shadow_ctx, block, light, &mut out[..reached]);
+    for (i, through) in out[..reached].iter().enumerate() {
+        samples.incoming[k].set(block.lane(i), light.radiance() * *through);
     }
 }
 
