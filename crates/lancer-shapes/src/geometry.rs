@@ -355,6 +355,23 @@ impl<'a> Lines<'a> {
         Vec3::new(p[0][k], p[1][k], p[2][k])
     }
 
+    /// `visit(lane, origin, direction)` for every ray in order. Each packet is turned into
+    /// eight vectors at once before its rays are visited: a vector made of three loads and
+    /// handed on in memory would be read back before its three stores are done (a stall per
+    /// ray, on the BVH walk's first loads).
+    #[inline]
+    pub fn each_ray(&self, mut visit: impl FnMut(usize, Vec3, Vec3)) {
+        for (p, (o, d)) in self.origin.iter().zip(self.dir).enumerate() {
+            let base = p * 8;
+            let lanes = (self.len() - base).min(8);
+            let origin: [Vec3; 8] = std::array::from_fn(|k| Vec3::new(o[0][k], o[1][k], o[2][k]));
+            let dir: [Vec3; 8] = std::array::from_fn(|k| Vec3::new(d[0][k], d[1][k], d[2][k]));
+            for k in 0..lanes {
+                visit(base + k, origin[k], dir[k]);
+            }
+        }
+    }
+
     /// The rays `range`, which starts at a packet's first ray.
     #[inline]
     pub fn range(&self, range: std::ops::Range<usize>) -> Lines<'a> {
@@ -511,12 +528,11 @@ impl Geometry {
         mut found: impl FnMut(usize, u32, &ShapeHit),
     ) {
         if self.stream.is_empty() {
-            for lane in 0..lines.len() {
-                let from = Origin { point: lines.origin(lane), skip: lines.skip[lane] };
-                if let Some((i, c)) = self.closest(from, lines.dir(lane), 0.0, tmax(lane)) {
+            lines.each_ray(|lane, o, d| {
+                if let Some((i, c)) = self.closest(Origin { point: o, skip: lines.skip[lane] }, d, 0.0, tmax(lane)) {
                     found(lane, i, &c);
                 }
-            }
+            });
         } else {
             crate::stream::closest_each(&self.objects, &self.stream, lines, tmax, found);
         }
@@ -528,15 +544,11 @@ impl Geometry {
     /// has a closest crossing); a larger one asks the BVH per ray.
     pub fn any_each(&self, lines: Lines<'_>, tmax: impl Fn(usize) -> f32, mut blocked: impl FnMut(usize)) {
         if self.stream.is_empty() {
-            for lane in 0..lines.len() {
-                if self.any_hit(
-                    Origin { point: lines.origin(lane), skip: lines.skip[lane] },
-                    lines.dir(lane),
-                    tmax(lane),
-                ) {
+            lines.each_ray(|lane, o, d| {
+                if self.any_hit(Origin { point: o, skip: lines.skip[lane] }, d, tmax(lane)) {
                     blocked(lane);
                 }
-            }
+            });
         } else {
             crate::stream::closest_each(&self.objects, &self.stream, lines, tmax, |lane, _, _| blocked(lane));
         }
