@@ -20,10 +20,12 @@ pub const PACKET: usize = 8;
 /// Eight lanes of vectors axis by axis: `[x; 8]`, `[y; 8]`, `[z; 8]`.
 pub type Packet = [[f32; PACKET]; 3];
 
-/// Lane `k` of a packet.
+/// Lane `k` of a packet. (Made in a vector register: stored in memory, it is then written as
+/// eight bytes and four, which a later eight-byte load of its `x, y` can be served from; three
+/// separate stores would make that load wait for them.)
 #[inline(always)]
 pub fn lane(packet: &Packet, k: usize) -> Vec3 {
-    Vec3::new(packet[0][k], packet[1][k], packet[2][k])
+    Vec3::from(glam::Vec3A::new(packet[0][k], packet[1][k], packet[2][k]))
 }
 
 /// A column of vectors stored eight lanes to a [`Packet`], axis by axis within it: a system

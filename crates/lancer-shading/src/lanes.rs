@@ -75,7 +75,7 @@ pub(crate) fn mirror_direction(u: &V3, shading: &V3, normal: &V3) -> V3 {
 /// Lane `j` of `v`.
 #[inline(always)]
 pub(crate) fn lane(v: &V3, j: usize) -> Vec3 {
-    Vec3::new(v[0].as_array_ref()[j], v[1].as_array_ref()[j], v[2].as_array_ref()[j])
+    Vec3::from(glam::Vec3A::new(v[0].as_array_ref()[j], v[1].as_array_ref()[j], v[2].as_array_ref()[j]))
 }
 
 /// `c^e` lane by lane for whole exponents `e` (at most 2^16): `f32::powi`'s steps (the

@@ -345,14 +345,14 @@ impl<'a> Lines<'a> {
     #[inline(always)]
     pub fn origin(&self, lane: usize) -> Vec3 {
         let (p, k) = (&self.origin[lane / 8], lane % 8);
-        Vec3::new(p[0][k], p[1][k], p[2][k])
+        Vec3::from(glam::Vec3A::new(p[0][k], p[1][k], p[2][k]))
     }
 
     /// The direction of ray `lane`.
     #[inline(always)]
     pub fn dir(&self, lane: usize) -> Vec3 {
         let (p, k) = (&self.dir[lane / 8], lane % 8);
-        Vec3::new(p[0][k], p[1][k], p[2][k])
+        Vec3::from(glam::Vec3A::new(p[0][k], p[1][k], p[2][k]))
     }
 
     /// `visit(lane, origin, direction)` for every ray in order. Each packet is turned into
