@@ -56,7 +56,7 @@ fn the_thread_count_changes_no_bit() {
         // Compared bit for bit (`==` on floats would let a 0 pass for a -0), the beauty image
         // and every layer.
         let bits = |f: &lancer_core::Frame| {
-            let images = std::iter::once(&f.beauty[..]).chain(f.layers.iter().map(|l| &l.pixels[..]));
+            let images = std::iter::once(&f.beauty).chain(f.layers.iter().map(|l| &l.pixels));
             images.flat_map(|px| px.iter().flat_map(|p| p.to_array().map(f32::to_bits))).collect::<Vec<u32>>()
         };
         let one = bits(&render(&loaded, Some(72), 1));

@@ -409,7 +409,7 @@ fn case(dir: &Path, name: &str, text: &str, meshes: Option<u64>) -> Outcome {
         &loaded.pipeline,
         RenderOptions { layers: true, ..RenderOptions::default() },
     );
-    let images = frame.layers.iter().map(|l| (l.name.as_str(), &l.pixels[..])).chain([("beauty", &frame.beauty[..])]);
+    let images = frame.layers.iter().map(|l| (l.name.as_str(), &l.pixels)).chain([("beauty", &frame.beauty)]);
     for (name, pixels) in images {
         if let Some(i) = pixels.iter().position(|p| !p.is_finite()) {
             return Outcome::Failure(format!("a non-finite value in {name} at pixel {i}"));

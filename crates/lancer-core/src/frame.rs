@@ -99,95 +99,6 @@ impl std::ops::AddAssign for RenderStats {
     }
 }
 
-/// The beauty image's pixels: zeroed memory mapped for the image and, on Linux, advised onto
-/// huge pages (a 720p render then takes a handful of page faults as it first writes its rows,
-/// not thousands); an ordinary vector where mapping fails, or for an image made from one.
-pub struct Pixels(Store);
-
-enum Store {
-    /// An anonymous mapping of at least `len` pixels.
-    Mapped(memmap2::MmapMut, usize),
-    Owned(Vec<Vec3>),
-}
-
-impl Pixels {
-    /// `n` black pixels.
-    pub fn zeroed(n: usize) -> Pixels {
-        let bytes = n * std::mem::size_of::<Vec3>();
-        if bytes == 0 {
-            return Pixels(Store::Owned(Vec::new()));
-        }
-        match memmap2::MmapOptions::new().len(bytes).map_anon() {
-            Ok(map) => {
-                // Only advice: without huge pages the mapping works the same.
-                #[cfg(target_os = "linux")]
-                let _ = map.advise(memmap2::Advice::HugePage);
-                Pixels(Store::Mapped(map, n))
-            }
-            Err(_) => Pixels(Store::Owned(bytemuck::zeroed_vec(n))),
-        }
-    }
-}
-
-impl From<Vec<Vec3>> for Pixels {
-    fn from(pixels: Vec<Vec3>) -> Pixels {
-        Pixels(Store::Owned(pixels))
-    }
-}
-
-impl std::ops::Deref for Pixels {
-    type Target = [Vec3];
-    fn deref(&self) -> &[Vec3] {
-        match &self.0 {
-            Store::Mapped(map, n) => &bytemuck::cast_slice(&map[..])[..*n],
-            Store::Owned(v) => v,
-        }
-    }
-}
-
-impl std::ops::DerefMut for Pixels {
-    fn deref_mut(&mut self) -> &mut [Vec3] {
-        match &mut self.0 {
-            Store::Mapped(map, n) => &mut bytemuck::cast_slice_mut(&mut map[..])[..*n],
-            Store::Owned(v) => v,
-        }
-    }
-}
-
-impl<'a> IntoIterator for &'a Pixels {
-    type Item = &'a Vec3;
-    type IntoIter = std::slice::Iter<'a, Vec3>;
-    fn into_iter(self) -> Self::IntoIter {
-        self.iter()
-    }
-}
-
-impl<'a> IntoIterator for &'a mut Pixels {
-    type Item = &'a mut Vec3;
-    type IntoIter = std::slice::IterMut<'a, Vec3>;
-    fn into_iter(self) -> Self::IntoIter {
-        self.iter_mut()
-    }
-}
-
-impl Clone for Pixels {
-    fn clone(&self) -> Pixels {
-        Pixels(Store::Owned(self.to_vec()))
-    }
-}
-
-impl std::fmt::Debug for Pixels {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_list().entries(self.iter()).finish()
-    }
-}
-
-impl PartialEq for Pixels {
-    fn eq(&self, other: &Pixels) -> bool {
-        self[..] == other[..]
-    }
-}
-
 /// A rendered frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
@@ -199,7 +110,7 @@ pub struct Frame {
     /// not asked to keep them (`RenderOptions::layers` of the shading crate).
     pub layers: Vec<Layer>,
     /// The beauty image: the sum of every layer, in layer order, in linear float.
-    pub beauty: Pixels,
+    pub beauty: Vec<Vec3>,
     /// How many rays the render traced.
     pub stats: RenderStats,
 }
@@ -207,7 +118,7 @@ pub struct Frame {
 impl Frame {
     /// A frame of these layers, with the beauty image summed from them.
     pub fn from_layers(width: u32, height: u32, layers: Vec<Layer>, stats: RenderStats) -> Frame {
-        let mut beauty = Pixels::zeroed((width * height) as usize);
+        let mut beauty: Vec<Vec3> = bytemuck::zeroed_vec((width * height) as usize);
         for layer in &layers {
             for (o, p) in beauty.iter_mut().zip(&layer.pixels) {
                 *o += *p;

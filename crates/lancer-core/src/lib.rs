@@ -12,7 +12,7 @@ pub mod rays;
 pub mod scene;
 
 pub use camera::Camera;
-pub use frame::{Frame, Layer, Pixels, RenderStats, SystemTimes};
+pub use frame::{Frame, Layer, RenderStats, SystemTimes};
 pub use glam::Vec3;
 pub use material::{Light, Material, Pattern, Texture};
 pub use scene::{ImageSettings, MaterialOf, Meta, Scene, Transform};

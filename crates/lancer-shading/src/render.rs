@@ -125,7 +125,7 @@ pub fn render_prepared(
     } else {
         Vec::new()
     };
-    let mut beauty = lancer_core::Pixels::zeroed(pixels);
+    let mut beauty: Vec<Vec3> = bytemuck::zeroed_vec(pixels);
 
     if width == 0 || height == 0 {
         return Frame { width, height, layers, beauty, stats: RenderStats::default() };
