@@ -40,6 +40,18 @@ pub(crate) fn truth(b: bool) -> f32 {
     f32::from_bits(u32::from(b).wrapping_neg())
 }
 
+/// The lanes set in `bits`, in order.
+#[inline(always)]
+pub(crate) fn set(mut bits: u8) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (bits != 0).then(|| {
+            let j = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            j
+        })
+    })
+}
+
 /// Bit `j` set where `on(j)` for the first `len` lanes, with no branch per lane (lanes whose
 /// hit or miss alternates would mispredict one).
 #[inline(always)]
@@ -119,15 +131,9 @@ impl Group {
 
     /// The lanes set in `bits`, in order, as chunk lanes.
     #[inline(always)]
-    pub(crate) fn lanes(&self, mut bits: u8) -> impl Iterator<Item = (usize, usize)> {
+    pub(crate) fn lanes(&self, bits: u8) -> impl Iterator<Item = (usize, usize)> {
         let base = self.base;
-        std::iter::from_fn(move || {
-            (bits != 0).then(|| {
-                let j = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                (j, base + j)
-            })
-        })
+        set(bits).map(move |j| (j, base + j))
     }
 
     /// A material parameter of each hit lane (`param`), and the hit lanes where `acts` takes it
@@ -192,6 +198,36 @@ impl Group {
     #[inline(always)]
     pub(crate) fn dir(&self, rays: &Rays) -> V3 {
         load(&rays.dir.packets()[self.base / PACKET])
+    }
+
+    /// [`crate::sum_lights`] eight lanes at a time, for the lanes set in `on`: `Σ f(N·w, w) ·
+    /// light` over the lights in front of the surface (`N·w > 0`, with `n` the normal facing
+    /// the ray) that send something, in light order, with the same bits lane by lane. With
+    /// `COSTLY`, a light that reaches none of the lanes is passed over before `f` (a branch
+    /// worth taking only when `f` costs more than a misprediction).
+    #[inline(always)]
+    pub(crate) fn sum_lights<const COSTLY: bool>(
+        &self,
+        lights: &LightSamples,
+        n: &V3,
+        on: f32x8,
+        f: impl Fn(f32x8, &V3) -> f32x8,
+    ) -> V3 {
+        use wide::CmpGt;
+        let mut sum = [f32x8::ZERO; 3];
+        for k in 0..lights.lights {
+            let (w, light) = self.light(lights, k);
+            let nw = dot(n, &w);
+            let lit = on & nw.cmp_gt(f32x8::ZERO) & nonzero(&light);
+            if COSTLY && lit.move_mask() == 0 {
+                continue;
+            }
+            let f = f(nw, &w);
+            for a in 0..3 {
+                sum[a] = lit.blend(sum[a] + f * light[a], sum[a]);
+            }
+        }
+        sum
     }
 
     /// `w` and the light arriving, from light `k`.

@@ -123,12 +123,27 @@ impl TermOutput<'_> {
     /// Adds `colour` (before the ray's weight) to the pixel of `lane`.
     #[inline(always)]
     pub fn add(&mut self, lane: usize, colour: Vec3) {
-        let layer = self.credit(lane) as usize;
         let added = self.weight * self.rays.weight.at(lane) * colour;
+        self.put(lane, colour, added);
+    }
+
+    /// `added` (`colour` times the weights) into the image `lane` credits, at its pixel.
+    #[inline(always)]
+    fn put(&mut self, lane: usize, colour: Vec3, added: Vec3) {
+        let layer = self.credit(lane) as usize;
         self.accum[layer][self.rays.pixel[lane] as usize] += added;
         if let Some(record) = self.record.as_deref_mut() {
             record.push((colour, added));
         }
+    }
+
+    /// The term's weight times the ray weights of the group from `base` times `x`, eight lanes
+    /// at a time: `self.weight * rays.weight[lane] * x` lane by lane, the same bits.
+    #[inline(always)]
+    fn weighted(&self, base: usize, x: &crate::lanes::V3) -> crate::lanes::V3 {
+        let weight = crate::lanes::load(&self.rays.weight.packets()[base / lancer_core::rays::PACKET]);
+        let term = wide::f32x8::splat(self.weight);
+        std::array::from_fn(|a| term * weight[a] * x[a])
     }
 
     /// [`TermOutput::add`] for the lanes of the group from `base` (a packet's first lane) set in
@@ -136,21 +151,9 @@ impl TermOutput<'_> {
     /// same bits as lane by lane.
     #[inline(always)]
     pub(crate) fn add_lanes(&mut self, base: usize, bits: u8, colour: &crate::lanes::V3) {
-        let weight = crate::lanes::load(&self.rays.weight.packets()[base / lancer_core::rays::PACKET]);
-        let term = wide::f32x8::splat(self.weight);
-        let added: [[f32; 8]; 3] = std::array::from_fn(|a| (term * weight[a] * colour[a]).to_array());
-        let colour = colour.map(|c| c.to_array());
-        let mut bits = bits;
-        while bits != 0 {
-            let j = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            let lane = base + j;
-            let layer = self.credit(lane) as usize;
-            let add = Vec3::new(added[0][j], added[1][j], added[2][j]);
-            self.accum[layer][self.rays.pixel[lane] as usize] += add;
-            if let Some(record) = self.record.as_deref_mut() {
-                record.push((Vec3::new(colour[0][j], colour[1][j], colour[2][j]), add));
-            }
+        let added = self.weighted(base, colour);
+        for j in crate::lanes::set(bits) {
+            self.put(base + j, crate::lanes::lane(colour, j), crate::lanes::lane(&added, j));
         }
     }
 
@@ -167,21 +170,10 @@ impl TermOutput<'_> {
         dir: &crate::lanes::V3,
         factor: &crate::lanes::V3,
     ) {
-        let weight = crate::lanes::load(&self.rays.weight.packets()[base / lancer_core::rays::PACKET]);
-        let term = wide::f32x8::splat(self.weight);
-        let weight = std::array::from_fn::<_, 3, _>(|a| term * weight[a] * factor[a]);
-        let mut bits = bits;
-        while bits != 0 {
-            let j = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            let (lane, weight) = (base + j, crate::lanes::lane(&weight, j));
-            if !self.can_spawn(lane) || weight == Vec3::ZERO {
-                continue;
-            }
-            let credit = self.credit(lane);
-            let from = lancer_core::rays::lane(origin, j);
-            let dir = crate::lanes::lane(dir, j);
-            self.next.push(from, skip[j], dir, weight, self.rays.pixel[lane], self.rays.depth[lane] + 1, credit);
+        let weight = self.weighted(base, factor);
+        for j in crate::lanes::set(bits) {
+            let from = Origin { point: lancer_core::rays::lane(origin, j), skip: skip[j] };
+            self.queue(base + j, from, crate::lanes::lane(dir, j), crate::lanes::lane(&weight, j));
         }
     }
 
@@ -196,6 +188,13 @@ impl TermOutput<'_> {
     #[inline(always)]
     pub fn spawn(&mut self, lane: usize, origin: Origin, dir: Vec3, factor: Vec3) {
         let weight = self.weight * self.rays.weight.at(lane) * factor;
+        self.queue(lane, origin, dir, weight);
+    }
+
+    /// Queues a child of `lane` of this `weight` (its factor times the weights), unless past
+    /// the depth limit or of zero weight.
+    #[inline(always)]
+    fn queue(&mut self, lane: usize, origin: Origin, dir: Vec3, weight: Vec3) {
         if !self.can_spawn(lane) || weight == Vec3::ZERO {
             return;
         }

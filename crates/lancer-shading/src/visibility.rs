@@ -147,10 +147,7 @@ fn toward_light(
     let offset: V3 = std::array::from_fn(|a| from[a] - s.point[a]);
     let left = (length - lanes::dot(&offset, &dir)).to_array();
     let length = length.to_array();
-    let mut bits = reached;
-    while bits != 0 {
-        let j = bits.trailing_zeros() as usize;
-        bits &= bits - 1;
+    for j in lanes::set(reached as u8) {
         let from = Origin { point: lancer_core::rays::lane(&origin, j), skip: skip[j] };
         block.push(s.base + j, from, lancer_core::rays::lane(&dir_lanes, j), length[j], left[j]);
     }

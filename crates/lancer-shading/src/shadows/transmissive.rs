@@ -97,13 +97,10 @@ fn through_block(
         ctx.occluders(lines, |r| block.left(which[r]), |r, object, c| first[which[r]] = Some((object, *c)));
     });
     for (i, out) in out.iter_mut().enumerate().take(n) {
-        // What `onward` gives for a first stretch that meets nothing (all of the light) or an
-        // opaque object (none), without starting its walk.
-        *out = match first[i] {
-            _ if !ahead(i) => Vec3::ONE,
-            None => Vec3::ONE,
-            Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
-            crossing => onward(ctx, &block.hit(ctx, i), block.dir(i), block.dist(i), tint, Some(crossing)),
+        *out = if ahead(i) {
+            past_first(ctx, first[i], |c| onward(ctx, &block.hit(ctx, i), block.dir(i), block.dist(i), tint, Some(c)))
+        } else {
+            Vec3::ONE
         };
     }
 }
@@ -190,21 +187,26 @@ fn through_blocks(
         let lines = Lines { origin: &origin[..packets], dir: &dir[..packets], skip: &skip[..rays] };
         ctx.occluders(lines, |r| left[r], |r, object, c| first[r] = Some((object, *c)));
         for (i, at) in hits.iter().enumerate() {
-            // What `onward` gives for a first stretch that meets nothing (all of the light) or an
-            // opaque object (none), without starting its walk.
             let light = match ray[i] {
                 Err(light) => light,
-                Ok(r) => Some(match first[r] {
-                    None => Vec3::ONE,
-                    Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
-                    crossing => {
-                        let d = Vec3::new(dir[r / 8][0][r % 8], dir[r / 8][1][r % 8], dir[r / 8][2][r % 8]);
-                        onward(ctx, at, d, dist[r], tint, Some(crossing))
-                    }
-                }),
+                Ok(r) => Some(past_first(ctx, first[r], |c| {
+                    onward(ctx, at, lancer_core::rays::lane(&dir[r / 8], r % 8), dist[r], tint, Some(c))
+                })),
             };
             done(start + i, light);
         }
+    }
+}
+
+/// The light through a shadow ray whose first stretch meets `first`: what `onward` gives for
+/// one that meets nothing (all of it) or an opaque object (none) without starting its walk,
+/// else `walk(first)`.
+#[inline]
+fn past_first(ctx: &ShadowContext<'_>, first: Crossing, walk: impl FnOnce(Crossing) -> Vec3) -> Vec3 {
+    match first {
+        None => Vec3::ONE,
+        Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
+        crossing => walk(crossing),
     }
 }
 

@@ -9,7 +9,7 @@
 //! terms = ["ambient", "diffuse"]
 //! ```
 
-use wide::{CmpGt, f32x8};
+use wide::f32x8;
 
 use crate::lanes::{self, Group};
 use crate::term::facing;
@@ -52,16 +52,7 @@ impl Term for Lambert {
                 continue;
             }
             let n = group.facing(chunk.hits);
-            let on = lanes::mask(active);
-            let mut sum = [f32x8::ZERO; 3];
-            for k in 0..chunk.lights.lights {
-                let (w, light) = group.light(chunk.lights, k);
-                let nw = lanes::dot(&n, &w);
-                let lit = on & nw.cmp_gt(f32x8::ZERO) & lanes::nonzero(&light);
-                for a in 0..3 {
-                    sum[a] = lit.blend(sum[a] + nw * light[a], sum[a]);
-                }
-            }
+            let sum = group.sum_lights::<false>(chunk.lights, &n, lanes::mask(active), |nw, _| nw);
             let (diff, color) = (f32x8::new(diff), group.color(chunk.hits));
             let colour: lanes::V3 = std::array::from_fn(|a| diff * color[a] * sum[a]);
             out.add_lanes(group.base, active, &colour);

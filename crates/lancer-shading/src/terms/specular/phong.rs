@@ -14,7 +14,7 @@
 
 use glam::Vec3;
 use lancer_core::rays::PACKET;
-use wide::{CmpGt, CmpLe, f32x8};
+use wide::{CmpLe, f32x8};
 
 use crate::lanes::{self, Group};
 use crate::term::facing;
@@ -86,25 +86,15 @@ impl Term for Phong {
             if active != 0 {
                 let n = group.facing(chunk.hits);
                 let u = group.dir(chunk.rays);
-                let on = lanes::mask(active);
-                let mut sum = [f32x8::ZERO; 3];
-                for k in 0..chunk.lights.lights {
-                    let (w, light) = group.light(chunk.lights, k);
-                    let nw = lanes::dot(&n, &w);
+                let shine = f32x8::new(shine);
+                let sum = group.sum_lights::<true>(chunk.lights, &n, lanes::mask(active), |nw, w| {
                     let two = f32x8::splat(2.0) * nw;
                     let w_r: lanes::V3 = std::array::from_fn(|a| two * n[a] - w[a]);
                     let c = lanes::neg(lanes::dot(&u, &w_r));
-                    let lit = on & nw.cmp_gt(f32x8::ZERO) & lanes::nonzero(&light);
-                    if lit.move_mask() == 0 {
-                        continue;
-                    }
                     // `phong_factor`: 0 unless −u·w_r > 0 (a NaN goes on, as there).
-                    let lobe = f32x8::new(shine) * lanes::powi(c.min(f32x8::ONE), power);
-                    let f = c.cmp_le(f32x8::ZERO).blend(f32x8::ZERO, lobe);
-                    for a in 0..3 {
-                        sum[a] = lit.blend(sum[a] + f * light[a], sum[a]);
-                    }
-                }
+                    let lobe = shine * lanes::powi(c.min(f32x8::ONE), power);
+                    c.cmp_le(f32x8::ZERO).blend(f32x8::ZERO, lobe)
+                });
                 let spec = f32x8::new(spec);
                 let colour: lanes::V3 = sum.map(|c| spec * c);
                 if alone == 0 {
