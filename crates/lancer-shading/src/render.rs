@@ -100,9 +100,9 @@ pub fn render(scene: &Scene, pipeline: &Pipeline, options: RenderOptions<'_>) ->
 /// Renders an already prepared scene. The result is the same, bit for bit, whatever the number
 /// of threads: tiles are independent and each is processed in a fixed order.
 ///
-/// The beauty image (and the layers, when kept) are allocated once and each band of tiles (a
-/// row of tiles: a contiguous run of each image) writes its own part of them, the beauty image
-/// as each tile's layers summed in layer order; a thread keeps its scratch buffers (the
+/// The beauty image (and the layers, when kept) are allocated once and each tile writes its own
+/// pixels of them (through its band's rows: a row of tiles is a contiguous run of each image),
+/// the beauty image as the tile's layers summed in layer order; a thread keeps its scratch buffers (the
 /// tile's hecs world, chunk columns, the next generation's rays, the tile's accumulators) from
 /// tile to tile, so the steady state allocates nothing.
 pub fn render_prepared(
@@ -133,20 +133,22 @@ pub fn render_prepared(
     let band_len = (TILE * width) as usize;
     let bands_count = height.div_ceil(TILE) as usize;
     let mut per_layer: Vec<_> = layers.iter_mut().map(|l| l.pixels.chunks_mut(band_len)).collect();
-    let mut bands: Vec<Band<'_>> = beauty
+    // Each band's rows of the beauty image and of every layer kept, behind a lock a tile holds
+    // only to copy its pixels in: the tiles of one band may be rendered on different threads.
+    let rows: Vec<std::sync::Mutex<BandRows<'_>>> = beauty
         .chunks_mut(band_len)
-        .enumerate()
-        .map(|(b, sum)| {
-            (b, sum, per_layer.iter_mut().map(|chunks| chunks.next().expect("one chunk per band")).collect())
+        .map(|sum| {
+            let layers = per_layer.iter_mut().map(|chunks| chunks.next().expect("one chunk per band")).collect();
+            std::sync::Mutex::new((sum, layers))
         })
         .collect();
     // Bands in a spread order (each band still writes only its own rows, so the frame is the
     // same): the tiles done at any moment sample the whole image, and the progress estimate
     // does not trust an easy sky for a costly floor.
+    let mut bands: Vec<usize> = (0..bands_count).collect();
     if let Some((index, count)) = options.part {
-        bands.retain(|(b, ..)| *b as u32 % count.max(1) == index);
+        bands.retain(|b| *b as u32 % count.max(1) == index);
     }
-    let tiles_count = bands.len() * width.div_ceil(TILE_WIDTH) as usize;
     // One contiguous run of bands per thread (rayon splits the list in halves, so the first
     // split falls between runs), each run in a spread order: the tiles done at any moment
     // sample the whole image, and no two threads fault in pages of the same part of a layer at
@@ -155,55 +157,62 @@ pub fn render_prepared(
     let run_of = |b: usize| b * runs / bands_count;
     let run_start = |r: usize| (r * bands_count).div_ceil(runs);
     let ranks: Vec<Vec<usize>> = (0..runs).map(|r| spread_order(run_start(r + 1) - run_start(r))).collect();
-    bands.sort_by_key(|(b, ..)| {
+    bands.sort_by_key(|b| {
         let r = run_of(*b);
         (r, ranks[r][*b - run_start(r)])
     });
+    // The unit of work is a tile, not a band: a thread that has finished its run takes single
+    // tiles from the other's, so neither waits long for the last band (at 2 threads, bands
+    // left a thread idle 2 % of the render).
+    let tiles: Vec<(usize, u32)> =
+        bands.iter().flat_map(|&b| (0..width).step_by(TILE_WIDTH as usize).map(move |x0| (b, x0))).collect();
+    let tiles_count = tiles.len();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let stats = bands
+    let stats = tiles
         .into_par_iter()
-        .map_init(
-            || Scratch::new(pipeline),
-            |scratch, (band, sum, mut out)| {
-                let mut stats = RenderStats::default();
+        .fold(
+            || (Scratch::new(pipeline), RenderStats::default()),
+            |(mut scratch, mut stats), (band, x0)| {
+                if options.cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {
+                    return (scratch, stats);
+                }
                 let y0 = band as u32 * TILE;
-                for x0 in (0..width).step_by(TILE_WIDTH as usize) {
-                    if options.cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {
-                        break;
+                let tile = Tile { x0, y0, w: TILE_WIDTH.min(width - x0), h: TILE.min(height - y0) };
+                render_tile(&ctx, &lit, camera, image, pipeline, tile, &mut scratch, None, options.timing, &mut stats);
+                let mut lap = Lap::new(options.timing);
+                // The tile's pixels into the band's rows of every layer kept, and their sum,
+                // in layer order, into the beauty image.
+                let mut guard = rows[band].lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                let (sum, out) = &mut *guard;
+                for row in 0..tile.h as usize {
+                    let (at, from) = (row * width as usize + x0 as usize, row * tile.w as usize);
+                    let span = from..from + tile.w as usize;
+                    for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
+                        layer[at..at + tile.w as usize].copy_from_slice(&acc[span.clone()]);
                     }
-                    let tile = Tile { x0, y0, w: TILE_WIDTH.min(width - x0), h: TILE.min(height - y0) };
-                    render_tile(&ctx, &lit, camera, image, pipeline, tile, scratch, None, options.timing, &mut stats);
-                    let mut lap = Lap::new(options.timing);
-                    // The tile's pixels into the band's rows of every layer kept, and their
-                    // sum, in layer order, into the beauty image.
-                    for row in 0..tile.h as usize {
-                        let (at, from) = (row * width as usize + x0 as usize, row * tile.w as usize);
-                        let span = from..from + tile.w as usize;
-                        for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
-                            layer[at..at + tile.w as usize].copy_from_slice(&acc[span.clone()]);
-                        }
-                        for (i, px) in sum[at..at + tile.w as usize].iter_mut().enumerate() {
-                            *px = scratch.accum.iter().fold(Vec3::ZERO, |s, acc| s + acc[from + i]);
-                        }
-                    }
-                    lap.charge(&mut stats.times.chunks);
-                    if let Some(progress) = options.progress {
-                        progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, tiles_count);
+                    for (i, px) in sum[at..at + tile.w as usize].iter_mut().enumerate() {
+                        *px = scratch.accum.iter().fold(Vec3::ZERO, |s, acc| s + acc[from + i]);
                     }
                 }
-                stats
+                drop(guard);
+                lap.charge(&mut stats.times.chunks);
+                if let Some(progress) = options.progress {
+                    progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, tiles_count);
+                }
+                (scratch, stats)
             },
         )
+        .map(|(_, stats)| stats)
         .reduce(RenderStats::default, |mut a, b| {
             a += b;
             a
         });
+    drop(rows);
     Frame { width, height, layers, beauty, stats }
 }
 
-/// A band of tiles: its index (from the top), its rows of the beauty image, and of each layer
-/// kept.
-type Band<'a> = (usize, &'a mut [Vec3], Vec<&'a mut [Vec3]>);
+/// A band of tiles' rows of the beauty image, and of each layer kept.
+type BandRows<'a> = (&'a mut [Vec3], Vec<&'a mut [Vec3]>);
 
 /// For each of `n` items, its rank in an order that spreads over them (bit-reversed indices:
 /// 0, n/2, n/4, 3n/4, ...), so any prefix of the order samples the whole range.
