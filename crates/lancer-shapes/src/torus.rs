@@ -28,15 +28,37 @@ pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
 /// part of the line that can meet the torus lies outside `(tmin, tmax)`, or misses the slab
 /// `|y| ≤ minor` the torus lies in, the quartic is not solved and there are none.
 pub fn crossings(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> ([f32; 4], usize) {
-    let mut out = [0.0f32; 4];
-    // The direction is made unit in f64: normalised in f32 it is unit only to 1e-7, and the
-    // bounding-sphere step below would lose |o|² · 1e-7 (pinholes from far away).
-    let (od, dd) = (o.as_dvec3(), d.as_dvec3());
-    let len = dd.length();
-    if len == 0.0 || !len.is_finite() {
-        return (out, 0);
+    match Line::new(o, d) {
+        Some(line) => line_crossings(minor, &line, tmin, tmax),
+        None => ([0.0; 4], 0),
     }
-    let dd = dd / len;
+}
+
+/// A line `o + t d` in f64, its direction made unit: normalised in f32 it is unit only to
+/// 1e-7, and the bounding-sphere step of [`crossings`] would lose |o|² · 1e-7 (pinholes from
+/// far away).
+struct Line {
+    od: glam::DVec3,
+    /// The unit direction.
+    dd: glam::DVec3,
+    /// `|d|`: distances along the unit direction over it are the caller's `t`.
+    len: f64,
+}
+
+impl Line {
+    /// `None` for a zero or not finite direction.
+    #[inline]
+    fn new(o: Vec3, d: Vec3) -> Option<Line> {
+        let dd = d.as_dvec3();
+        let len = dd.length();
+        (len != 0.0 && len.is_finite()).then(|| Line { od: o.as_dvec3(), dd: dd / len, len })
+    }
+}
+
+/// [`crossings`] of a [`Line`].
+fn line_crossings(minor: f32, line: &Line, tmin: f32, tmax: f32) -> ([f32; 4], usize) {
+    let mut out = [0.0f32; 4];
+    let Line { od, dd, len } = *line;
     let r = minor as f64;
     // Start from the point of the line nearest the bounding sphere's entry (radius 1 + r),
     // which keeps the quartic's coefficients near 1 however far the origin is.
@@ -108,21 +130,20 @@ fn coefficients(p: glam::DVec3, d: glam::DVec3, r: f64) -> [f64; 4] {
 /// half the torus tests of a scene that shows one. Any doubt (a coefficient near zero, or a
 /// farther origin, where the coefficients lose digits) says `false`.
 #[inline]
-fn never_ahead(minor: f32, o: Vec3, d: Vec3) -> bool {
-    let (od, dd) = (o.as_dvec3(), d.as_dvec3());
+fn never_ahead(minor: f32, line: &Line) -> bool {
+    let Line { od, dd, .. } = *line;
     let r = minor as f64;
     let bound = 1.0 + r;
-    let len = dd.length();
     // (A tube radius of 1 or more, which scenes cannot give, would void the bound on the terms
     // below: the full solve decides.)
-    if !(0.0..1.0).contains(&r) || od.length_squared() > bound * bound || len == 0.0 || !len.is_finite() {
+    if !(0.0..1.0).contains(&r) || od.length_squared() > bound * bound {
         return false;
     }
     // The coefficients of `crossings`, taken at `o`. Every term of them is at most 40 in size
     // (|o| ≤ 1 + r < 2, |d| = 1, r < 1): rounding moves a coefficient by less than 1e-13, far
     // below this margin.
     const CLEAR: f64 = 1e-10;
-    coefficients(od, dd / len, r).iter().all(|&a| a > CLEAR)
+    coefficients(od, dd, r).iter().all(|&a| a > CLEAR)
 }
 
 /// A grazing double root may come out of the solver once: with an odd number of roots, the one
@@ -144,10 +165,11 @@ fn first_hit(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32,
 /// The distance of the first crossing of the torus surface by `o + t d` with `tmin < t < tmax`.
 #[inline]
 pub fn first_t(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
-    if tmin >= 0.0 && never_ahead(minor, o, d) {
+    let line = Line::new(o, d)?;
+    if tmin >= 0.0 && never_ahead(minor, &line) {
         return None;
     }
-    let (ts, n) = crossings(minor, o, d, tmin, tmax);
+    let (ts, n) = line_crossings(minor, &line, tmin, tmax);
     ts[..n].iter().copied().find(|&t| t > tmin && t < tmax)
 }
 
@@ -229,7 +251,7 @@ mod tests {
                 Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * f(0.1, 10.0)
             };
             cases += 1;
-            if never_ahead(minor, o, d) {
+            if Line::new(o, d).is_some_and(|line| never_ahead(minor, &line)) {
                 pruned += 1;
                 let (ts, n) = crossings(minor, o, d, f32::NEG_INFINITY, f32::INFINITY);
                 assert!(
@@ -247,10 +269,11 @@ mod tests {
     #[test]
     fn a_ray_leaving_the_top_of_the_tube_upwards_skips_the_quartic_and_one_across_the_hole_does_not() {
         let top = Vec3::new(1.0, 0.25 * (1.0 + 1e-5), 0.0);
-        assert!(never_ahead(0.25, top, Vec3::new(0.1, 1.0, 0.2)));
+        let ahead = |o: Vec3, d: Vec3| never_ahead(0.25, &Line::new(o, d).unwrap());
+        assert!(ahead(top, Vec3::new(0.1, 1.0, 0.2)));
         // From the inner wall across the hole: it meets the far side of the tube.
         let inner = Vec3::new(0.75 * (1.0 - 1e-5), 0.0, 0.0);
-        assert!(!never_ahead(0.25, inner, -Vec3::X));
+        assert!(!ahead(inner, -Vec3::X));
         assert!(first_t(0.25, inner, -Vec3::X, 0.0, f32::INFINITY).is_some_and(|t| (t - 1.5).abs() < 1e-4));
     }
 
