@@ -102,9 +102,10 @@ pub fn render(scene: &Scene, pipeline: &Pipeline, options: RenderOptions<'_>) ->
 ///
 /// The beauty image (and the layers, when kept) are allocated once and each tile writes its own
 /// pixels of them (through its band's rows: a row of tiles is a contiguous run of each image),
-/// the beauty image as the tile's layers summed in layer order; a thread keeps its scratch buffers (the
-/// tile's hecs world, chunk columns, the next generation's rays, the tile's accumulators) from
-/// tile to tile, so the steady state allocates nothing.
+/// the beauty image as the tile's layers summed in layer order. Each run of tiles rayon hands a
+/// thread keeps its scratch buffers (the tile's hecs world, chunk columns, the next generation's
+/// rays, the tile's accumulators) from tile to tile, so the steady state allocates nothing (a
+/// run taken from another thread's share starts new ones).
 pub fn render_prepared(
     prepared: &Prepared,
     camera: &Camera,
@@ -116,7 +117,7 @@ pub fn render_prepared(
     let ctx = shade_context(prepared, pipeline);
     let lit = lit_materials(&ctx, pipeline);
     let pixels = (width * height) as usize;
-    // Zeroed by the system, page by page as the bands first write them: no pass over the whole
+    // Zeroed by the system, page by page as the tiles first write them: no pass over the whole
     // frame before the render.
     let mut layers: Vec<Layer> = if options.layers {
         let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
@@ -151,8 +152,9 @@ pub fn render_prepared(
     }
     // One contiguous run of bands per thread (rayon splits the list in halves, so the first
     // split falls between runs), each run in a spread order: the tiles done at any moment
-    // sample the whole image, and no two threads fault in pages of the same part of a layer at
-    // once (interleaving bands across threads cost 5 % at 2 threads, in page-table locks).
+    // sample the whole image, and until one thread runs out of work and takes tiles from the
+    // other's run, no two threads fault in pages of the same part of a layer at once
+    // (interleaving bands across threads cost 5 % at 2 threads, in page-table locks).
     let runs = rayon::current_num_threads().clamp(1, bands_count.max(1));
     let run_of = |b: usize| b * runs / bands_count;
     let run_start = |r: usize| (r * bands_count).div_ceil(runs);

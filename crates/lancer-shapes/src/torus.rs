@@ -5,6 +5,13 @@ use glam::Vec3;
 
 use crate::quartic::{Roots, quartic_roots};
 
+/// Where the torus of tube radius `minor` lies, as a ball and a slab both holding it: within
+/// `ball` of its centre (1 + `minor`) and `|y| ≤ slab` (`minor`). [`crossings`] solves no
+/// quartic for a line that misses their common part.
+pub(crate) fn ball_and_slab(minor: f32) -> (f64, f64) {
+    (1.0 + minor as f64, minor as f64)
+}
+
 /// The outward unit normal of the torus at a point on it.
 pub fn normal(p: Vec3) -> Vec3 {
     let rho = (p.x * p.x + p.z * p.z).sqrt();
@@ -59,10 +66,9 @@ impl Line {
 fn line_crossings(minor: f32, line: &Line, tmin: f32, tmax: f32) -> ([f32; 4], usize) {
     let mut out = [0.0f32; 4];
     let Line { od, dd, len } = *line;
-    let r = minor as f64;
+    let (bound, r) = ball_and_slab(minor);
     // Start from the point of the line nearest the bounding sphere's entry (radius 1 + r),
     // which keeps the quartic's coefficients near 1 however far the origin is.
-    let bound = 1.0 + r;
     let b = od.dot(dd);
     // b² − c as bound² − |q|², q the line's point nearest the centre: no cancellation.
     let q = od - b * dd;
