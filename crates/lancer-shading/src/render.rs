@@ -325,13 +325,7 @@ impl Scratch {
         for start in (0..n).step_by(lanes) {
             let range = start..(start + lanes).min(n);
             let (mut rays, mut hits, mut samples) = self.pool.pop().unwrap_or_default();
-            if range.len() == n {
-                // The whole generation in one chunk (the usual case: a tile's rays at one
-                // sample per pixel): its columns trade places with the pooled ones, no copy.
-                std::mem::swap(&mut rays, &mut self.next);
-            } else {
-                rays.copy_from(&self.next, range.clone());
-            }
+            rays.copy_from(&self.next, range.clone());
             hits.reset(range.len());
             samples.reset(range.len(), lights);
             self.entities.push(self.world.spawn((rays, hits, samples)));
