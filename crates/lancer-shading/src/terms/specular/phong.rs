@@ -69,16 +69,28 @@ impl Term for Phong {
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
         // Eight lanes at a time, the same arithmetic as `phong_factor` and `sum_lights` lane by
         // lane (so the same bits); a lane whose exponent is not whole goes alone.
+        // The last material's answer: neighbouring hits mostly share a material, and its
+        // exponent costs a division and a rounding.
+        let mut last: Option<(u32, Option<Option<u32>>)> = None;
         for group in Group::all(chunk.hits) {
             let (mut spec, mut shine, mut power) = ([0.0f32; PACKET], [0.0f32; PACKET], [0u32; PACKET]);
             let (mut active, mut alone) = (0u8, 0u8);
             for (j, lane) in group.lanes(group.hit) {
+                let index = chunk.hits.material[lane];
                 let m = ctx.material(chunk.hits, lane);
-                if m.spec <= 0.0 || m.shine <= 0.0 || m.shine >= 1.0 {
-                    continue;
-                }
+                let exponent = match last {
+                    Some((i, e)) if i == index => e,
+                    _ => {
+                        // The scalar test, NaN included: a NaN `spec` or `shine` is not skipped.
+                        let skipped = m.spec <= 0.0 || m.shine <= 0.0 || m.shine >= 1.0;
+                        let e = (!skipped).then(|| super::whole_power(1.0 / (1.0 - m.shine)));
+                        last = Some((index, e));
+                        e
+                    }
+                };
+                let Some(exponent) = exponent else { continue };
                 (spec[j], shine[j]) = (m.spec, m.shine);
-                match super::whole_power(1.0 / (1.0 - m.shine)) {
+                match exponent {
                     Some(e) => (power[j], active) = (e, active | 1 << j),
                     None => alone |= 1 << j,
                 }
