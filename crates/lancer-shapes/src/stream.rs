@@ -9,7 +9,7 @@
 //! the ray, so a ray traced alone or among others, on any thread, finds the same hit.
 
 use glam::Vec3;
-use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe, f32x8, i32x8};
+use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, f32x8, i32x8};
 
 use crate::{Aabb, Lines, Object, ShapeHit};
 
@@ -41,94 +41,8 @@ pub(crate) enum Test {
     /// A plane in world space: unit normal and offset.
     Plane { normal: Vec3, offset: f32 },
     /// Any other object: its world box first (infinite for an unbounded one), then its own test
-    /// for each ray that meets the box (and the `shell`, where the shape has one).
-    Boxed { min: Vec3, max: Vec3, shell: Option<Shell> },
-}
-
-/// A region closer around a torus than its world box: a ball and a slab both hold it, so a ray
-/// whose stretch through the ball misses the slab (or that misses the ball) misses the torus,
-/// and its costly test is skipped. A tilted torus leaves most of its world box empty.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Shell {
-    /// The ball: centre and radius, already widened.
-    centre: Vec3,
-    radius: f32,
-    /// The slab: `|axis · p + offset| ≤ half` (`half` already widened), the torus's
-    /// object-space `|y| ≤ minor` with `axis` and `offset` the y row of its world-to-object
-    /// map, the same numbers its own test applies to a ray.
-    axis: Vec3,
-    offset: f32,
-    half: f32,
-    /// `|axis|`: a lane's widening (a length in world units) in the slab's own units.
-    axis_len: f32,
-}
-
-impl Shell {
-    /// The shell of `object` if it is a torus.
-    fn of(object: &Object) -> Option<Shell> {
-        let crate::Shape::Torus { minor } = object.shape else { return None };
-        let (ball, slab) = crate::torus::ball_and_slab(minor);
-        // Only for a placement whose axes are perpendicular (a rotation times a scale, as
-        // scenes place objects): under a shear, the f32 inverse the torus's own test applies
-        // and the map the ball is made from disagree by more than the widening below.
-        let m = object.world_from_object.matrix3;
-        let columns = [Vec3::from(m.x_axis), Vec3::from(m.y_axis), Vec3::from(m.z_axis)];
-        let perpendicular = (0..3).all(|i| {
-            let (u, v) = (columns[i], columns[(i + 1) % 3]);
-            u.dot(v).abs() <= 1e-5 * u.length() * v.length()
-        });
-        if !perpendicular {
-            return None;
-        }
-        // The ball in world space: within `ball` times the map's largest stretch of the centre.
-        // That stretch is at most the square root of the largest absolute row sum of LᵀL (a
-        // bound on its largest eigenvalue), exact for a rotation times a scale.
-        let l = glam::Mat3::from(m).as_dmat3();
-        let ltl = l.transpose() * l;
-        let rows = (0..3).map(|i| ltl.row(i).abs().element_sum()).fold(0.0f64, f64::max);
-        let centre = Vec3::from(object.world_from_object.translation);
-        let inverse = &object.object_from_world;
-        let axis = Vec3::from(inverse.matrix3.row(1));
-        let offset = inverse.translation.y;
-        let radius = ball * rows.sqrt();
-        // Widened well past the f32 rounding of the ball and slab tests below and of the
-        // object's own test (each a few ulps of the numbers involved).
-        let magnitude = (centre.abs().max_element() as f64).max(radius).max(offset.abs() as f64 / axis.length() as f64);
-        let radius = (radius * (1.0 + 1e-4) + magnitude * PAD as f64) as f32;
-        let half = (slab * (1.0 + 1e-4) + (magnitude * PAD as f64) * axis.length() as f64) as f32;
-        let shell = Shell { centre, radius, axis, offset, half, axis_len: axis.length() };
-        let numbers = [shell.radius, shell.offset, shell.half, shell.axis_len];
-        (shell.centre.is_finite() && shell.axis.is_finite() && numbers.iter().all(|v| v.is_finite())).then_some(shell)
-    }
-
-    /// The lanes of a group whose ray within `0 ≤ t ≤ tmax` may reach the ball and the slab at
-    /// once. A lane stays whenever its test is unsure: a NaN, or a direction so short or so long
-    /// that its squared length in f32 loses its digits or overflows (the torus's own test
-    /// makes it unit in f64).
-    #[inline(always)]
-    fn keep(&self, o: [Fx; 3], d: [Fx; 3], pad: Fx, tmax: Fx) -> i32 {
-        let oc = [o[0] - Fx::splat(self.centre.x), o[1] - Fx::splat(self.centre.y), o[2] - Fx::splat(self.centre.z)];
-        let a = dot(d, d);
-        let b = dot(oc, d);
-        let s = b / a;
-        let q = [oc[0] - s * d[0], oc[1] - s * d[1], oc[2] - s * d[2]];
-        let radius = Fx::splat(self.radius) + pad;
-        let disc = a * (radius * radius - dot(q, q));
-        let h = disc.max(Fx::ZERO).sqrt();
-        let minus_b = b ^ Fx::splat(-0.0);
-        let (ball_in, ball_out) = ((minus_b - h) / a, (minus_b + h) / a);
-        let axis = [Fx::splat(self.axis.x), Fx::splat(self.axis.y), Fx::splat(self.axis.z)];
-        let (along, at) = (dot(axis, d), dot(axis, o) + Fx::splat(self.offset));
-        let half = Fx::splat(self.half) + pad * Fx::splat(self.axis_len);
-        let (s0, s1) = (((half ^ Fx::splat(-0.0)) - at) / along, (half - at) / along);
-        let near = ball_in.max(s0.min(s1)).max(Fx::ZERO);
-        let far = ball_out.min(s0.max(s1)).min(tmax);
-        let nan = |v: Fx| v.cmp_ne(v);
-        let scaled = a.cmp_ge(Fx::splat(2f32.powi(-100))) & a.cmp_le(Fx::splat(2f32.powi(100)));
-        let unsure = !scaled | nan(disc) | nan(ball_in) | nan(ball_out) | nan(s0) | nan(s1) | nan(tmax);
-        let miss = disc.cmp_lt(Fx::ZERO) | near.cmp_gt(far);
-        (!miss | unsure).move_mask()
-    }
+    /// for each ray that meets the box.
+    Boxed { min: Vec3, max: Vec3 },
 }
 
 /// An object in the order rays meet them: the index it is known by, and its test.
@@ -158,8 +72,7 @@ pub(crate) fn plan(objects: &[Object], boxes: &[Option<Aabb>]) -> Vec<Item> {
                 None => {
                     let b = world.unwrap_or(Aabb { min: Vec3::NEG_INFINITY, max: Vec3::INFINITY });
                     let pad = Vec3::splat(b.min.abs().max(b.max.abs()).max_element() * PAD);
-                    let shell = Shell::of(o);
-                    (Test::Boxed { min: b.min - pad, max: b.max + pad, shell }, 2 + o.shape.cost_rank())
+                    (Test::Boxed { min: b.min - pad, max: b.max + pad }, 2 + o.shape.cost_rank())
                 }
             };
             let bound = world.map(|b| {
@@ -365,15 +278,10 @@ impl Block {
                     let (t, met) = plane(o, d, normal, offset, tmax);
                     self.keep(g, met & !skipped, t, item.object, Vec3::Y);
                 }
-                Test::Boxed { min, max, shell } => {
+                Test::Boxed { min, max } => {
                     let flat = [self.flat[0][g], self.flat[1][g], self.flat[2][g]];
                     let inv = [self.inv[0][g], self.inv[1][g], self.inv[2][g]];
                     let mut met = slabs::<FLAT>(o, inv, flat, min, max, self.pad[g], tmax) & !skipped;
-                    if met != 0
-                        && let Some(shell) = shell
-                    {
-                        met &= shell.keep(o, d, self.pad[g], tmax);
-                    }
                     while met != 0 {
                         let k = met.trailing_zeros() as usize;
                         met &= met - 1;
@@ -751,105 +659,5 @@ mod tests {
             }
         }
         assert!(met > 10_000 && culled > 1_000, "{met} kept, {culled} culled");
-    }
-
-    #[test]
-    fn a_sheared_torus_has_no_shell() {
-        // Columns far from perpendicular: the torus's own f32 inverse and the map disagree by
-        // more than a shell's widening, so it is tested behind its box alone.
-        let shear = Affine3A::from_mat3(glam::Mat3::from_cols(Vec3::X, Vec3::new(1.0, 1e-3, 0.0), Vec3::Z));
-        let object = Object::new(Shape::Torus { minor: 0.3 }, shear, 0).unwrap();
-        assert!(super::Shell::of(&object).is_none());
-        let turned = Affine3A::from_rotation_x(1.0);
-        assert!(super::Shell::of(&Object::new(Shape::Torus { minor: 0.3 }, turned, 0).unwrap()).is_some());
-    }
-
-    #[test]
-    fn a_torus_shell_keeps_every_ray_that_meets_the_torus() {
-        use super::{Fx, PAD, Shell, W};
-        let mut f = crate::testing::uniform(0x5DEE_CE66_D1CE_4E5B);
-        let (mut hits, mut misses, mut dropped) = (0, 0, 0);
-        for case in 0..300 {
-            // Placed near the origin and 10⁴ and 10⁵ units away; scaled the same on every axis or
-            // not, tiny to large, turned every way; thin and fat tubes.
-            let far = [Vec3::ZERO, Vec3::splat(1e4), Vec3::new(-1e5, 3e4, 2e5)][case % 3];
-            let size = [1.0, 1e-3, 30.0][case / 3 % 3];
-            let scale = if case % 2 == 0 {
-                Vec3::splat(f(0.3, 1.5) * size)
-            } else {
-                Vec3::new(f(0.3, 1.5), f(0.3, 1.5), f(0.3, 1.5)) * size
-            };
-            let turn = Quat::from_euler(glam::EulerRot::XYZ, f(-3.0, 3.0), f(-3.0, 3.0), f(-3.0, 3.0));
-            let minor = [0.05, 0.3, 0.9][case / 9 % 3];
-            // Now and then exactly the identity (the object's test then skips its transform).
-            let place = if case % 50 == 0 {
-                Affine3A::IDENTITY
-            } else {
-                Affine3A::from_scale_rotation_translation(scale, turn, far)
-            };
-            let object = Object::new(Shape::Torus { minor }, place, 0).unwrap();
-            let shell = Shell::of(&object).expect("a torus has a shell");
-            let mut rays = Vec::new();
-            for k in 0..64 {
-                // A point on the tube (object space), and a ray through it: from afar, from a point
-                // on the tube itself (a secondary ray), or along the surface's tangent (grazing).
-                let (u, v) = (f(0.0, std::f32::consts::TAU), f(0.0, std::f32::consts::TAU));
-                let ring = Vec3::new(u.cos(), 0.0, u.sin());
-                let normal = ring * v.cos() + Vec3::Y * v.sin();
-                let on = place.transform_point3(ring + normal * minor);
-                // From near the torus, or (a camera at the world's origin) from as far as it is.
-                let other = if case % 4 == 3 {
-                    Vec3::ZERO
-                } else {
-                    place.transform_point3(
-                        Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)).normalize_or(Vec3::X) * (1.0 + minor) * 3.0,
-                    )
-                };
-                let (o, d) = match k % 4 {
-                    0 => (other, on - other),
-                    1 => (on, Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0))),
-                    // Towards anywhere in the torus's box: near misses and hits.
-                    2 => {
-                        let box_point = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * (1.0 + minor);
-                        (other, place.transform_point3(box_point) - other)
-                    }
-                    _ => {
-                        let tangent = place.transform_vector3(normal.any_orthonormal_vector());
-                        (on - tangent * f(0.5, 3.0), tangent)
-                    }
-                };
-                let limit = if k % 5 == 0 { f(0.0, 4.0) * size } else { f32::INFINITY };
-                // Directions far from unit length too: their squared length in f32 underflows
-                // or overflows, where the torus's own test still finds the crossing.
-                let d = match k % 9 {
-                    0 => d * 1e20,
-                    1 => d * 1e-22,
-                    _ => d,
-                };
-                rays.push((o, d, limit));
-            }
-            for group in rays.chunks(W) {
-                let lane = |axis: usize, v: &dyn Fn(&(Vec3, Vec3, f32)) -> Vec3| {
-                    Fx::new(std::array::from_fn(|j| v(&group[j])[axis]))
-                };
-                let o = std::array::from_fn(|a| lane(a, &|r| r.0));
-                let d = std::array::from_fn(|a| lane(a, &|r| r.1));
-                let tmax = Fx::new(std::array::from_fn(|j| group[j].2));
-                let pad = Fx::new(std::array::from_fn(|j| group[j].0.abs().max_element() * PAD));
-                let kept = shell.keep(o, d, pad, tmax);
-                for (j, &(o, d, limit)) in group.iter().enumerate() {
-                    let hit = object.intersect(o, d, 0.0, limit);
-                    if hit.is_some() {
-                        hits += 1;
-                        assert!(kept & (1 << j) != 0, "case {case}: the shell dropped a hit: {o} + t {d}, {hit:?}");
-                    } else {
-                        misses += 1;
-                        dropped += usize::from(kept & (1 << j) == 0);
-                    }
-                }
-            }
-        }
-        // The shell is not a pass-through: it drops a fair share of the rays that miss.
-        assert!(hits > 5_000 && dropped * 10 > misses, "{hits} hits, {dropped} of {misses} misses dropped");
     }
 }

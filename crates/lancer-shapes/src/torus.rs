@@ -5,13 +5,6 @@ use glam::Vec3;
 
 use crate::quartic::{Roots, quartic_roots};
 
-/// Where the torus of tube radius `minor` lies, as a ball and a slab both holding it: within
-/// `ball` of its centre (1 + `minor`) and `|y| ≤ slab` (`minor`). [`crossings`] solves no
-/// quartic for a line that misses their common part.
-pub(crate) fn ball_and_slab(minor: f32) -> (f64, f64) {
-    (1.0 + minor as f64, minor as f64)
-}
-
 /// The outward unit normal of the torus at a point on it.
 pub fn normal(p: Vec3) -> Vec3 {
     let rho = (p.x * p.x + p.z * p.z).sqrt();
@@ -35,40 +28,19 @@ pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
 /// part of the line that can meet the torus lies outside `(tmin, tmax)`, or misses the slab
 /// `|y| ≤ minor` the torus lies in, the quartic is not solved and there are none.
 pub fn crossings(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> ([f32; 4], usize) {
-    match Line::new(o, d) {
-        Some(line) => line_crossings(minor, &line, tmin, tmax),
-        None => ([0.0; 4], 0),
-    }
-}
-
-/// A line `o + t d` in f64, its direction made unit: normalised in f32 it is unit only to
-/// 1e-7, and the bounding-sphere step of [`crossings`] would lose |o|² · 1e-7 (pinholes from
-/// far away).
-struct Line {
-    od: glam::DVec3,
-    /// The unit direction.
-    dd: glam::DVec3,
-    /// `|d|`: distances along the unit direction over it are the caller's `t`.
-    len: f64,
-}
-
-impl Line {
-    /// `None` for a zero or not finite direction.
-    #[inline]
-    fn new(o: Vec3, d: Vec3) -> Option<Line> {
-        let dd = d.as_dvec3();
-        let len = dd.length();
-        (len != 0.0 && len.is_finite()).then(|| Line { od: o.as_dvec3(), dd: dd / len, len })
-    }
-}
-
-/// [`crossings`] of a [`Line`].
-fn line_crossings(minor: f32, line: &Line, tmin: f32, tmax: f32) -> ([f32; 4], usize) {
     let mut out = [0.0f32; 4];
-    let Line { od, dd, len } = *line;
-    let (bound, r) = ball_and_slab(minor);
+    // The direction is made unit in f64: normalised in f32 it is unit only to 1e-7, and the
+    // bounding-sphere step below would lose |o|² · 1e-7 (pinholes from far away).
+    let (od, dd) = (o.as_dvec3(), d.as_dvec3());
+    let len = dd.length();
+    if len == 0.0 || !len.is_finite() {
+        return (out, 0);
+    }
+    let dd = dd / len;
+    let r = minor as f64;
     // Start from the point of the line nearest the bounding sphere's entry (radius 1 + r),
     // which keeps the quartic's coefficients near 1 however far the origin is.
+    let bound = 1.0 + r;
     let b = od.dot(dd);
     // b² − c as bound² − |q|², q the line's point nearest the centre: no cancellation.
     let q = od - b * dd;
@@ -136,20 +108,21 @@ fn coefficients(p: glam::DVec3, d: glam::DVec3, r: f64) -> [f64; 4] {
 /// half the torus tests of a scene that shows one. Any doubt (a coefficient near zero, or a
 /// farther origin, where the coefficients lose digits) says `false`.
 #[inline]
-fn never_ahead(minor: f32, line: &Line) -> bool {
-    let Line { od, dd, .. } = *line;
+fn never_ahead(minor: f32, o: Vec3, d: Vec3) -> bool {
+    let (od, dd) = (o.as_dvec3(), d.as_dvec3());
     let r = minor as f64;
     let bound = 1.0 + r;
+    let len = dd.length();
     // (A tube radius of 1 or more, which scenes cannot give, would void the bound on the terms
     // below: the full solve decides.)
-    if !(0.0..1.0).contains(&r) || od.length_squared() > bound * bound {
+    if !(0.0..1.0).contains(&r) || od.length_squared() > bound * bound || len == 0.0 || !len.is_finite() {
         return false;
     }
     // The coefficients of `crossings`, taken at `o`. Every term of them is at most 40 in size
     // (|o| ≤ 1 + r < 2, |d| = 1, r < 1): rounding moves a coefficient by less than 1e-13, far
     // below this margin.
     const CLEAR: f64 = 1e-10;
-    coefficients(od, dd, r).iter().all(|&a| a > CLEAR)
+    coefficients(od, dd / len, r).iter().all(|&a| a > CLEAR)
 }
 
 /// A grazing double root may come out of the solver once: with an odd number of roots, the one
@@ -171,11 +144,10 @@ fn first_hit(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32,
 /// The distance of the first crossing of the torus surface by `o + t d` with `tmin < t < tmax`.
 #[inline]
 pub fn first_t(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
-    let line = Line::new(o, d)?;
-    if tmin >= 0.0 && never_ahead(minor, &line) {
+    if tmin >= 0.0 && never_ahead(minor, o, d) {
         return None;
     }
-    let (ts, n) = line_crossings(minor, &line, tmin, tmax);
+    let (ts, n) = crossings(minor, o, d, tmin, tmax);
     ts[..n].iter().copied().find(|&t| t > tmin && t < tmax)
 }
 
@@ -257,7 +229,7 @@ mod tests {
                 Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * f(0.1, 10.0)
             };
             cases += 1;
-            if Line::new(o, d).is_some_and(|line| never_ahead(minor, &line)) {
+            if never_ahead(minor, o, d) {
                 pruned += 1;
                 let (ts, n) = crossings(minor, o, d, f32::NEG_INFINITY, f32::INFINITY);
                 assert!(
@@ -275,11 +247,10 @@ mod tests {
     #[test]
     fn a_ray_leaving_the_top_of_the_tube_upwards_skips_the_quartic_and_one_across_the_hole_does_not() {
         let top = Vec3::new(1.0, 0.25 * (1.0 + 1e-5), 0.0);
-        let ahead = |o: Vec3, d: Vec3| never_ahead(0.25, &Line::new(o, d).unwrap());
-        assert!(ahead(top, Vec3::new(0.1, 1.0, 0.2)));
+        assert!(never_ahead(0.25, top, Vec3::new(0.1, 1.0, 0.2)));
         // From the inner wall across the hole: it meets the far side of the tube.
         let inner = Vec3::new(0.75 * (1.0 - 1e-5), 0.0, 0.0);
-        assert!(!ahead(inner, -Vec3::X));
+        assert!(!never_ahead(0.25, inner, -Vec3::X));
         assert!(first_t(0.25, inner, -Vec3::X, 0.0, f32::INFINITY).is_some_and(|t| (t - 1.5).abs() < 1e-4));
     }
 
