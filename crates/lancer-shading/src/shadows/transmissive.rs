@@ -59,26 +59,12 @@ impl ShadowModel for Transmissive {
 /// same exit query as the refraction path); a surface with no inside (a disk, an open mesh)
 /// counts at each crossing, and the ray goes on beyond it.
 pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32, tint: bool) -> Vec3 {
-    with_walks(|walks| {
-        walks.start(0, *at, dir, dist, None);
-        let mut light = Vec3::ZERO;
-        walks.run(ctx, tint, |_, l| light = l);
-        light
-    })
-}
-
-/// `f` with this thread's [`Walks`] (empty), or new ones when they are in use already.
-fn with_walks<R>(f: impl FnOnce(&mut Walks) -> R) -> R {
-    WALKS.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut walks) => f(&mut walks),
-        Err(_) => f(&mut Walks::new()),
-    })
+    onward(ctx, at, dir, dist, tint, None)
 }
 
 /// [`through_occluders`] from each hit of `block` along its straight ray, into `out`: the first
-/// stretch of every shadow ray traced together ([`ShadowContext::occluders`]), then the rays
-/// that crossed a transparent object, stretch after stretch, together ([`Walks`]). Each hit
-/// gets what `through_occluders` gives it alone.
+/// stretch of every shadow ray traced together ([`ShadowContext::occluders`]), the rest (past
+/// transparent objects) one by one. Each hit gets what `through_occluders` gives it alone.
 pub fn through_occluders_each(ctx: &ShadowContext<'_>, block: &HitBlock<'_>, tint: bool, out: &mut [Vec3]) {
     FIRST.with(|cell| match cell.try_borrow_mut() {
         Ok(mut first) => through_block(ctx, block, tint, out, &mut first),
@@ -104,173 +90,18 @@ fn through_block(
     let n = block.len();
     first[..n].fill(None);
     // A ray with nothing left (a hit at the light, or within the start's offset of it) is not
-    // traced: the light reaches it whole, as a walk finds before tracing.
-    // (A NaN length, which a walk would trace, counts as ahead.)
+    // traced: the light reaches it whole, as `onward` finds before tracing.
+    // (A NaN length, which `onward` would trace, counts as ahead.)
     let ahead = |i: usize| block.left(i) > 0.0 || block.left(i).is_nan();
     block.rays_where(ahead, |lines, which| {
         ctx.occluders(lines, |r| block.left(which[r]), |r, object, c| first[which[r]] = Some((object, *c)));
     });
-    with_walks(|walks| {
-        for (i, out) in out.iter_mut().enumerate().take(n) {
-            *out = if ahead(i) {
-                past_first(ctx, first[i], |c| {
-                    walks.start(i, block.hit(ctx, i), block.dir(i), block.dist(i), c);
-                    // Until the walks below tell.
-                    Vec3::ZERO
-                })
-            } else {
-                Vec3::ONE
-            };
-        }
-        walks.run(ctx, tint, |i, light| out[i] = light);
-    });
-}
-
-thread_local! {
-    /// Each thread's walks, reused from block to block (empty between blocks).
-    static WALKS: std::cell::RefCell<Box<Walks>> = std::cell::RefCell::new(Box::new(Walks::new()));
-}
-
-/// The walks of shadow rays past transparent objects, side by side: round after round, every
-/// ray still going is traced together with the others ([`ShadowContext::occluders`]). A walk
-/// takes the same steps alone or among others, so each ray gets the same light either way.
-struct Walks {
-    /// How many walks are going.
-    len: usize,
-    walk: [Walk; BLOCK],
-}
-
-/// One ray's walk, between its steps.
-#[derive(Clone, Copy)]
-struct Walk {
-    /// Which ray of the caller's.
-    slot: usize,
-    /// Where the ray starts (the distance left is measured from there), its direction, and the
-    /// distance to its end.
-    start: Vec3,
-    dir: Vec3,
-    dist: f32,
-    /// The light left so far, and the surface the ray goes on from.
-    light: Vec3,
-    surface: Hit,
-    /// The first crossing of the next stretch, when it is known already.
-    given: Crossing,
-}
-
-impl Walks {
-    fn new() -> Walks {
-        let walk = Walk {
-            slot: 0,
-            start: Vec3::ZERO,
-            dir: Vec3::ZERO,
-            dist: 0.0,
-            light: Vec3::ONE,
-            surface: Hit::default(),
-            given: None,
+    for (i, out) in out.iter_mut().enumerate().take(n) {
+        *out = if ahead(i) {
+            past_first(ctx, first[i], |c| onward(ctx, &block.hit(ctx, i), block.dir(i), block.dist(i), tint, Some(c)))
+        } else {
+            Vec3::ONE
         };
-        Walks { len: 0, walk: [walk; BLOCK] }
-    }
-
-    /// A walk from `at` along `dir` to `dist`, whose first stretch meets `first`.
-    fn start(&mut self, slot: usize, at: Hit, dir: Vec3, dist: f32, first: Crossing) {
-        let w = Walk { slot, start: at.point, dir, dist, light: Vec3::ONE, surface: at, given: first };
-        self.walk[self.len] = w;
-        self.len += 1;
-    }
-
-    /// Runs every walk to its end: `done(slot, light)` for each, in no particular order.
-    fn run(&mut self, ctx: &ShadowContext<'_>, tint: bool, mut done: impl FnMut(usize, Vec3)) {
-        if self.len == 0 {
-            return;
-        }
-        let mut origin = [[[0.0; 8]; 3]; BLOCK / 8];
-        let mut dir = [[[0.0; 8]; 3]; BLOCK / 8];
-        let (mut skip, mut left, mut from) = ([0u32; BLOCK], [0.0f32; BLOCK], [Vec3::ZERO; BLOCK]);
-        let mut first: [Crossing; BLOCK] = [None; BLOCK];
-        let mut ray = [usize::MAX; BLOCK];
-        for _ in 0..MAX_CROSSINGS {
-            if self.len == 0 {
-                return;
-            }
-            // This step's stretch of every walk; the ones whose first crossing is not known yet
-            // are traced together.
-            let mut rays = 0;
-            let mut k = 0;
-            while k < self.len {
-                let w = &self.walk[k];
-                let o = ctx.geometry.spawn(&w.surface, w.dir);
-                let l = w.dist - (o.point - w.start).dot(w.dir);
-                if l <= 0.0 {
-                    done(w.slot, w.light);
-                    self.remove(k);
-                    continue;
-                }
-                from[k] = o.point;
-                ray[k] = usize::MAX;
-                if w.given.is_none() {
-                    for axis in 0..3 {
-                        (origin[rays / 8][axis][rays % 8], dir[rays / 8][axis][rays % 8]) =
-                            (o.point[axis], w.dir[axis]);
-                    }
-                    (skip[rays], left[rays], first[rays], ray[k]) = (o.skip, l, None, rays);
-                    rays += 1;
-                }
-                k += 1;
-            }
-            if rays > 0 {
-                let packets = rays.div_ceil(8);
-                let lines = Lines { origin: &origin[..packets], dir: &dir[..packets], skip: &skip[..rays] };
-                ctx.occluders(lines, |r| left[r], |r, object, c| first[r] = Some((object, *c)));
-            }
-            // What each stretch met.
-            let mut k = 0;
-            while k < self.len {
-                let w = &mut self.walk[k];
-                let met = if ray[k] == usize::MAX { w.given.take() } else { first[ray[k]] };
-                let Some((object, crossing)) = met else {
-                    done(w.slot, w.light);
-                    self.remove_with(k, &mut from, &mut ray);
-                    continue;
-                };
-                let m = ctx.material_of(object);
-                if m.alpha <= 0.0 {
-                    done(w.slot, Vec3::ZERO);
-                    self.remove_with(k, &mut from, &mut ray);
-                    continue;
-                }
-                let hit = ctx.geometry.objects[object as usize].hit(object, from[k], w.dir, &crossing);
-                // A filter passes at most all the light: a colour above 1 does not amplify it.
-                w.light *= if tint { m.alpha * ctx.color_at(&hit).min(Vec3::ONE) } else { Vec3::splat(m.alpha) };
-                match ctx.geometry.past(&hit, w.dir) {
-                    Some(past) => w.surface = past,
-                    // It never ends (a plane's half-space): the light is inside it.
-                    None => {
-                        done(w.slot, w.light);
-                        self.remove_with(k, &mut from, &mut ray);
-                        continue;
-                    }
-                }
-                k += 1;
-            }
-        }
-        // More crossings than the bound: fully blocked.
-        for w in &self.walk[..self.len] {
-            done(w.slot, Vec3::ZERO);
-        }
-        self.len = 0;
-    }
-
-    /// Ends walk `k` (the last one takes its place).
-    fn remove(&mut self, k: usize) {
-        self.len -= 1;
-        self.walk[k] = self.walk[self.len];
-    }
-
-    /// [`Walks::remove`], moving the step's per-walk values along with it.
-    fn remove_with(&mut self, k: usize, from: &mut [Vec3; BLOCK], ray: &mut [usize; BLOCK]) {
-        self.remove(k);
-        from[k] = from[self.len];
-        ray[k] = ray[self.len];
     }
 }
 
@@ -301,8 +132,6 @@ struct Columns {
     dist: [f32; BLOCK],
     ray: [Result<usize, Option<Vec3>>; BLOCK],
     first: [Option<(u32, lancer_shapes::ShapeHit)>; BLOCK],
-    /// The walks of the rays past transparent objects.
-    walks: Walks,
 }
 
 impl Columns {
@@ -315,7 +144,6 @@ impl Columns {
             dist: [0.0; BLOCK],
             ray: [Err(None); BLOCK],
             first: [None; BLOCK],
-            walks: Walks::new(),
         }
     }
 }
@@ -334,13 +162,13 @@ fn through_blocks(
     tint: bool,
     mut done: impl FnMut(usize, Option<Vec3>),
 ) {
-    let Columns { origin, skip, dir, left, dist, ray, first, walks } = c;
+    let Columns { origin, skip, dir, left, dist, ray, first } = c;
     for (start, hits) in (0..).step_by(BLOCK).zip(hits.chunks(BLOCK)) {
         let mut rays = 0;
         for (i, at) in hits.iter().enumerate() {
             ray[i] = Err(None);
             let Some((d, far)) = ctx.toward(at, target(start + i)) else { continue };
-            // The first stretch exactly as a walk starts it.
+            // The first stretch exactly as `onward` starts it.
             let from = ctx.geometry.spawn(at, d);
             let l = far - (from.point - at.point).dot(d);
             if l <= 0.0 {
@@ -358,25 +186,19 @@ fn through_blocks(
         let packets = rays.div_ceil(8);
         let lines = Lines { origin: &origin[..packets], dir: &dir[..packets], skip: &skip[..rays] };
         ctx.occluders(lines, |r| left[r], |r, object, c| first[r] = Some((object, *c)));
-        let mut light = [None; BLOCK];
         for (i, at) in hits.iter().enumerate() {
-            light[i] = match ray[i] {
+            let light = match ray[i] {
                 Err(light) => light,
                 Ok(r) => Some(past_first(ctx, first[r], |c| {
-                    walks.start(i, *at, lancer_core::rays::lane(&dir[r / 8], r % 8), dist[r], c);
-                    // Until the walks below tell.
-                    Vec3::ZERO
+                    onward(ctx, at, lancer_core::rays::lane(&dir[r / 8], r % 8), dist[r], tint, Some(c))
                 })),
             };
-        }
-        walks.run(ctx, tint, |i, l| light[i] = Some(l));
-        for (i, light) in light.into_iter().enumerate().take(hits.len()) {
             done(start + i, light);
         }
     }
 }
 
-/// The light through a shadow ray whose first stretch meets `first`: what a walk gives for
+/// The light through a shadow ray whose first stretch meets `first`: what `onward` gives for
 /// one that meets nothing (all of it) or an opaque object (none) without starting its walk,
 /// else `walk(first)`.
 #[inline]
@@ -386,6 +208,47 @@ fn past_first(ctx: &ShadowContext<'_>, first: Crossing, walk: impl FnOnce(Crossi
         Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
         crossing => walk(crossing),
     }
+}
+
+/// The walk of [`through_occluders`]; `given`: the answer to its first shadow ray when it was
+/// already traced.
+fn onward(
+    ctx: &ShadowContext<'_>,
+    at: &Hit,
+    dir: Vec3,
+    dist: f32,
+    tint: bool,
+    mut given: Option<Option<(u32, lancer_shapes::ShapeHit)>>,
+) -> Vec3 {
+    let mut light = Vec3::ONE;
+    let mut surface = *at;
+    for _ in 0..MAX_CROSSINGS {
+        let from = ctx.geometry.spawn(&surface, dir);
+        let left = dist - (from.point - at.point).dot(dir);
+        if left <= 0.0 {
+            return light;
+        }
+        let first = match given.take() {
+            Some(first) => first,
+            None => ctx.occluder(from, dir, left),
+        };
+        let Some((object, crossing)) = first else {
+            return light;
+        };
+        let m = ctx.material_of(object);
+        if m.alpha <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let hit = ctx.geometry.objects[object as usize].hit(object, from.point, dir, &crossing);
+        // A filter passes at most all the light: a colour above 1 does not amplify it.
+        light *= if tint { m.alpha * ctx.color_at(&hit).min(Vec3::ONE) } else { Vec3::splat(m.alpha) };
+        match ctx.geometry.past(&hit, dir) {
+            Some(past) => surface = past,
+            // It never ends (a plane's half-space): the light is inside it.
+            None => return light,
+        }
+    }
+    Vec3::ZERO
 }
 
 #[cfg(test)]
