@@ -534,7 +534,7 @@ impl Geometry {
                 }
             });
         } else {
-            crate::stream::closest_each(&self.objects, &self.stream, lines, tmax, found);
+            crate::stream::closest_each(&self.objects, &self.stream, 0, lines, tmax, |lane, i, c, _| found(lane, i, c));
         }
     }
 
@@ -550,15 +550,51 @@ impl Geometry {
                 }
             });
         } else {
-            crate::stream::closest_each(&self.objects, &self.stream, lines, tmax, |lane, _, _| blocked(lane));
+            crate::stream::closest_each(&self.objects, &self.stream, 0, lines, tmax, |lane, _, _, _| blocked(lane));
+        }
+    }
+
+    /// [`Geometry::closest_each`] for rays that see through some objects (`through(object)`):
+    /// `found(lane, object, crossing, alone)` with each ray's closest crossing, and `alone` when
+    /// that is a see-through object's and the ray meets no other object within its limit (its
+    /// own `skip` aside). A ray's answer depends only on the ray.
+    pub fn first_each_through(
+        &self,
+        lines: Lines<'_>,
+        tmax: impl Fn(usize) -> f32,
+        through: impl Fn(u32) -> bool,
+        mut found: impl FnMut(usize, u32, &ShapeHit, bool),
+    ) {
+        // The see-through items of the stream, a bit each (a stream too long for the mask, as a
+        // scene without one, traces ray by ray).
+        if self.stream.is_empty() || self.stream.len() > 128 {
+            lines.each_ray(|lane, o, d| {
+                let from = Origin { point: o, skip: lines.skip[lane] };
+                if let Some((i, c)) = self.closest(from, d, 0.0, tmax(lane)) {
+                    found(lane, i, &c, through(i) && !self.any_hit_without(from, d, tmax(lane), i));
+                }
+            });
+        } else {
+            let mask = self
+                .stream
+                .iter()
+                .enumerate()
+                .filter(|(_, item)| through(item.object))
+                .fold(0u128, |m, (k, _)| m | 1 << k);
+            crate::stream::closest_each(&self.objects, &self.stream, mask, lines, tmax, found);
         }
     }
 
     /// Whether any object (but `from.skip`) lies on the ray within `0 < t < tmax`: a shadow ray
     /// that may stop at the first occluder it finds.
     pub fn any_hit(&self, from: Origin, d: Vec3, tmax: f32) -> bool {
+        self.any_hit_without(from, d, tmax, NO_SKIP)
+    }
+
+    /// [`Geometry::any_hit`] with the object `without` ignored too.
+    pub fn any_hit_without(&self, from: Origin, d: Vec3, tmax: f32, without: u32) -> bool {
         let (o, skip) = (from.point, from.skip);
-        let blocks = |i: u32| i != skip && self.objects[i as usize].occludes(o, d, tmax);
+        let blocks = |i: u32| i != skip && i != without && self.objects[i as usize].occludes(o, d, tmax);
         if self.unbounded.iter().any(|&i| blocks(i)) {
             return true;
         }

@@ -93,12 +93,19 @@ fn through_block(
     // traced: the light reaches it whole, as `onward` finds before tracing.
     // (A NaN length, which `onward` would trace, counts as ahead.)
     let ahead = |i: usize| block.left(i) > 0.0 || block.left(i).is_nan();
+    let mut blocked = [true; BLOCK];
     block.rays_where(ahead, |lines, which| {
-        ctx.occluders(lines, |r| block.left(which[r]), |r, object, c| first[which[r]] = Some((object, *c)));
+        ctx.occluders_through(
+            lines,
+            |r| block.left(which[r]),
+            |object| see_through(ctx, object),
+            |r, object, c, alone| (first[which[r]], blocked[which[r]]) = (Some((object, *c)), !alone),
+        );
     });
     for (i, out) in out.iter_mut().enumerate().take(n) {
         *out = if ahead(i) {
-            past_first(ctx, first[i], |c| onward(ctx, &block.hit(ctx, i), block.dir(i), block.dist(i), tint, Some(c)))
+            settled(ctx, block.origin(i).point, block.dir(i), first[i], tint, blocked[i])
+                .unwrap_or_else(|| onward(ctx, &block.hit(ctx, i), block.dir(i), block.dist(i), tint, Some(first[i])))
         } else {
             Vec3::ONE
         };
@@ -185,28 +192,71 @@ fn through_blocks(
         first[..rays].fill(None);
         let packets = rays.div_ceil(8);
         let lines = Lines { origin: &origin[..packets], dir: &dir[..packets], skip: &skip[..rays] };
-        ctx.occluders(lines, |r| left[r], |r, object, c| first[r] = Some((object, *c)));
+        let mut blocked = [true; BLOCK];
+        ctx.occluders_through(
+            lines,
+            |r| left[r],
+            |object| see_through(ctx, object),
+            |r, object, c, alone| (first[r], blocked[r]) = (Some((object, *c)), !alone),
+        );
         for (i, at) in hits.iter().enumerate() {
             let light = match ray[i] {
                 Err(light) => light,
-                Ok(r) => Some(past_first(ctx, first[r], |c| {
-                    onward(ctx, at, lancer_core::rays::lane(&dir[r / 8], r % 8), dist[r], tint, Some(c))
-                })),
+                Ok(r) => {
+                    let (from, d) = (lines.origin(r), lines.dir(r));
+                    Some(
+                        settled(ctx, from, d, first[r], tint, blocked[r])
+                            .unwrap_or_else(|| onward(ctx, at, d, dist[r], tint, Some(first[r]))),
+                    )
+                }
             };
             done(start + i, light);
         }
     }
 }
 
-/// The light through a shadow ray whose first stretch meets `first`: what `onward` gives for
-/// one that meets nothing (all of it) or an opaque object (none) without starting its walk,
-/// else `walk(first)`.
+/// Whether object `object` is transparent and convex: a straight shadow ray crosses it once (in
+/// and out, or only out), so if nothing else lies on the ray, its share of the light is all the
+/// walk past it would find.
 #[inline]
-fn past_first(ctx: &ShadowContext<'_>, first: Crossing, walk: impl FnOnce(Crossing) -> Vec3) -> Vec3 {
+fn see_through(ctx: &ShadowContext<'_>, object: u32) -> bool {
+    ctx.material_of(object).alpha > 0.0 && ctx.geometry.objects[object as usize].shape.is_convex()
+}
+
+/// What a shadow ray from `from` along `dir` whose first stretch meets `first` lets through,
+/// when that decides it without the walk of [`onward`]: all of the light when it meets nothing,
+/// none when it meets an opaque object first, and the share of a transparent object it
+/// [`see_through`] object when nothing else lies on the ray (`!blocked`). `None`: the walk decides.
+#[inline]
+fn settled(ctx: &ShadowContext<'_>, from: Vec3, dir: Vec3, first: Crossing, tint: bool, blocked: bool) -> Option<Vec3> {
     match first {
-        None => Vec3::ONE,
-        Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Vec3::ZERO,
-        crossing => walk(crossing),
+        None => Some(Vec3::ONE),
+        Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Some(Vec3::ZERO),
+        Some((object, crossing)) if !blocked && see_through(ctx, object) => {
+            Some(share(ctx, object, from, dir, &crossing, tint))
+        }
+        Some(_) => None,
+    }
+}
+
+/// The share of the light a transparent object lets through where the ray from `from` along
+/// `dir` crosses it (`crossing`): its `alpha`, times its colour there with `tint` (a filter
+/// passes at most all the light: a colour above 1 does not amplify it).
+#[inline]
+fn share(
+    ctx: &ShadowContext<'_>,
+    object: u32,
+    from: Vec3,
+    dir: Vec3,
+    crossing: &lancer_shapes::ShapeHit,
+    tint: bool,
+) -> Vec3 {
+    let m = ctx.material_of(object);
+    if tint {
+        let hit = ctx.geometry.objects[object as usize].hit(object, from, dir, crossing);
+        m.alpha * ctx.color_at(&hit).min(Vec3::ONE)
+    } else {
+        Vec3::splat(m.alpha)
     }
 }
 
@@ -228,9 +278,11 @@ fn onward(
         if left <= 0.0 {
             return light;
         }
-        let first = match given.take() {
-            Some(first) => first,
-            None => ctx.occluder(from, dir, left),
+        // A stretch traced here, not handed in: a transparent object it crosses once, with
+        // nothing else on it, settles the rest (as `settled` does for a block's first stretch).
+        let (first, traced) = match given.take() {
+            Some(first) => (first, false),
+            None => (ctx.occluder(from, dir, left), true),
         };
         let Some((object, crossing)) = first else {
             return light;
@@ -239,8 +291,13 @@ fn onward(
         if m.alpha <= 0.0 {
             return Vec3::ZERO;
         }
+        // (The same stretch asked again, past the object: one shadow ray, as a block's stretch
+        // traced with the object seen through is.)
+        if traced && see_through(ctx, object) && !ctx.geometry.any_hit_without(from, dir, left, object) {
+            return light * share(ctx, object, from.point, dir, &crossing, tint);
+        }
         let hit = ctx.geometry.objects[object as usize].hit(object, from.point, dir, &crossing);
-        // A filter passes at most all the light: a colour above 1 does not amplify it.
+        // As `share`, from the surface described here.
         light *= if tint { m.alpha * ctx.color_at(&hit).min(Vec3::ONE) } else { Vec3::splat(m.alpha) };
         match ctx.geometry.past(&hit, dir) {
             Some(past) => surface = past,
