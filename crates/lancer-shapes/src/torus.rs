@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use crate::quartic::{Roots, quartic_roots};
+use crate::quartic::{Roots, least_root, quartic_roots};
 
 /// The outward unit normal of the torus at a point on it.
 pub fn normal(p: Vec3) -> Vec3 {
@@ -29,62 +29,90 @@ pub fn roots(minor: f32, o: Vec3, d: Vec3) -> Vec<(f32, Vec3)> {
 /// `|y| ≤ minor` the torus lies in, the quartic is not solved and there are none.
 pub fn crossings(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> ([f32; 4], usize) {
     let mut out = [0.0f32; 4];
-    // The direction is made unit in f64: normalised in f32 it is unit only to 1e-7, and the
-    // bounding-sphere step below would lose |o|² · 1e-7 (pinholes from far away).
-    let (od, dd) = (o.as_dvec3(), d.as_dvec3());
-    let len = dd.length();
-    if len == 0.0 || !len.is_finite() {
+    let Some(q) = Quartic::of(minor, o, d, tmin, tmax) else {
         return (out, 0);
-    }
-    let dd = dd / len;
-    let r = minor as f64;
-    // Start from the point of the line nearest the bounding sphere's entry (radius 1 + r),
-    // which keeps the quartic's coefficients near 1 however far the origin is.
-    let bound = 1.0 + r;
-    let b = od.dot(dd);
-    // b² − c as bound² − |q|², q the line's point nearest the centre: no cancellation.
-    let q = od - b * dd;
-    let disc = bound * bound - q.dot(q);
-    if disc < 0.0 {
-        return (out, 0);
-    }
-    let shift = -b - disc.sqrt();
-    let chord = 2.0 * disc.sqrt();
-    // The bounding sphere's chord, in the caller's units of t, against the range asked for.
-    let (t_in, t_out) = (shift / len, (shift + chord) / len);
-    if t_out <= tmin as f64 || t_in >= tmax as f64 {
-        return (out, 0);
-    }
-    let p = od + shift * dd;
-    // The torus lies in the slab |y| ≤ r: the chord must cross it.
-    if dd.y == 0.0 {
-        if p.y.abs() > r {
-            return (out, 0);
-        }
-    } else {
-        let (s0, s1) = ((-r - p.y) / dd.y, (r - p.y) / dd.y);
-        let (lo, hi) = (s0.min(s1).max(0.0), s0.max(s1).min(chord));
-        if lo > hi {
-            return (out, 0);
-        }
-        // Within the slab, a line that stays inside the hole (distance to the axis below
-        // 1 − r at both ends, so all along: the squared distance is convex) misses the tube.
-        let rho2 = |s: f64| {
-            let q = p + s * dd;
-            q.x * q.x + q.z * q.z
-        };
-        let hole = (1.0 - r) * (1.0 - r);
-        if rho2(lo) < hole && rho2(hi) < hole {
-            return (out, 0);
-        }
-    }
-    let [a3, a2, a1, a0] = coefficients(p, dd, r);
+    };
+    let [a3, a2, a1, a0] = q.coefficients;
     let mut ss = quartic_roots(a3, a2, a1, a0);
     pair_up(&mut ss, |x: f64| (((4.0 * x + 3.0 * a3) * x + 2.0 * a2) * x + a1).abs());
     for (slot, s) in out.iter_mut().zip(ss.iter()) {
-        *slot = ((s + shift) / len) as f32;
+        *slot = q.t(*s);
     }
     (out, ss.len())
+}
+
+/// The quartic in `s` whose roots are where a line meets the torus, `s` measured from a point
+/// near the torus along the unit direction: its coefficients, and what maps a root back to the
+/// line's `t`.
+struct Quartic {
+    coefficients: [f64; 4],
+    shift: f64,
+    len: f64,
+}
+
+impl Quartic {
+    /// The distance along the caller's line of the root `s`.
+    #[inline]
+    fn t(&self, s: f64) -> f32 {
+        ((s + self.shift) / self.len) as f32
+    }
+
+    /// The quartic of the line `o + t d` and the torus of tube radius `minor`; `None` when the
+    /// part of the line that can meet the torus lies outside `(tmin, tmax)`, or misses the slab
+    /// `|y| ≤ minor` the torus lies in, or stays in its hole.
+    #[inline]
+    fn of(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Quartic> {
+        // The direction is made unit in f64: normalised in f32 it is unit only to 1e-7, and the
+        // bounding-sphere step below would lose |o|² · 1e-7 (pinholes from far away).
+        let (od, dd) = (o.as_dvec3(), d.as_dvec3());
+        let len = dd.length();
+        if len == 0.0 || !len.is_finite() {
+            return None;
+        }
+        let dd = dd / len;
+        let r = minor as f64;
+        // Start from the point of the line nearest the bounding sphere's entry (radius 1 + r),
+        // which keeps the quartic's coefficients near 1 however far the origin is.
+        let bound = 1.0 + r;
+        let b = od.dot(dd);
+        // b² − c as bound² − |q|², q the line's point nearest the centre: no cancellation.
+        let q = od - b * dd;
+        let disc = bound * bound - q.dot(q);
+        if disc < 0.0 {
+            return None;
+        }
+        let shift = -b - disc.sqrt();
+        let chord = 2.0 * disc.sqrt();
+        // The bounding sphere's chord, in the caller's units of t, against the range asked for.
+        let (t_in, t_out) = (shift / len, (shift + chord) / len);
+        if t_out <= tmin as f64 || t_in >= tmax as f64 {
+            return None;
+        }
+        let p = od + shift * dd;
+        // The torus lies in the slab |y| ≤ r: the chord must cross it.
+        if dd.y == 0.0 {
+            if p.y.abs() > r {
+                return None;
+            }
+        } else {
+            let (s0, s1) = ((-r - p.y) / dd.y, (r - p.y) / dd.y);
+            let (lo, hi) = (s0.min(s1).max(0.0), s0.max(s1).min(chord));
+            if lo > hi {
+                return None;
+            }
+            // Within the slab, a line that stays inside the hole (distance to the axis below
+            // 1 − r at both ends, so all along: the squared distance is convex) misses the tube.
+            let rho2 = |s: f64| {
+                let q = p + s * dd;
+                q.x * q.x + q.z * q.z
+            };
+            let hole = (1.0 - r) * (1.0 - r);
+            if rho2(lo) < hole && rho2(hi) < hole {
+                return None;
+            }
+        }
+        Some(Quartic { coefficients: coefficients(p, dd, r), shift, len })
+    }
 }
 
 /// The coefficients `[a3, a2, a1, a0]` of the monic quartic in `s` whose roots are where the
@@ -147,8 +175,14 @@ pub fn first_t(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32
     if tmin >= 0.0 && never_ahead(minor, o, d) {
         return None;
     }
-    let (ts, n) = crossings(minor, o, d, tmin, tmax);
-    ts[..n].iter().copied().find(|&t| t > tmin && t < tmax)
+    // The least root within range, as `crossings` would find it among all of them.
+    let q = Quartic::of(minor, o, d, tmin, tmax)?;
+    let [a3, a2, a1, a0] = q.coefficients;
+    let within = |s: f64| {
+        let t = q.t(s);
+        t > tmin && t < tmax
+    };
+    least_root(a3, a2, a1, a0, within).map(|s| q.t(s))
 }
 
 #[cfg(test)]
