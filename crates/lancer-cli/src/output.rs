@@ -113,8 +113,9 @@ pub fn encode_exr(width: u32, height: u32, pixels: &[Vec3]) -> Result<Vec<u8>> {
 /// by side already), so the same pixels always give the same bytes.
 ///
 /// The `exr` crate writes the header and offset tables; each scan line is laid out and
-/// compressed here ([`rle_line`]), straight from the row: the crate's per-pixel interface took
-/// 12 ns a pixel, and its RLE packing, byte by byte, most of the time `--aov` spends writing.
+/// compressed here ([`RleLine::compress`], [`rle_pack`]), straight from the row: the crate's
+/// per-pixel interface took 12 ns a pixel, and its RLE packing, byte by byte, a fifth more time
+/// than this one (`--aov` writing 0.099 against 0.082 s on the benchmark scene).
 fn write_exr(out: &mut (impl Write + Seek), width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
     use exr::block::chunk::{Chunk, CompressedBlock, CompressedScanLineBlock};
     use exr::block::writer::ChunksWriter;

@@ -84,10 +84,12 @@ fn largest_cubic_root(a: f64, b: f64, c: f64) -> f64 {
         m * (arg.acos() * THIRD).cos()
     };
     let mut x = y - a3;
-    // The trigonometric and Cardano forms lose digits only near a multiple root (`disc` near
-    // zero against its terms): polished there, by Newton's method. (Elsewhere a polish moved no
+    // The trigonometric and Cardano forms lose digits near a multiple root (`disc` near zero
+    // against its terms), and the root loses them when it comes out much smaller than the
+    // cubic's scale (`a/3` and `√|p|`: terms that cancelled, as for a nearly even quartic whose
+    // resolvent root is tiny): polished then, by Newton's method. (Elsewhere a polish moved no
     // root of the benchmark scene's 196k torus tests by a bit of the final f32 distance.)
-    if disc.abs() > 1e-6 * (half_q2 + third_p3.abs()) {
+    if disc.abs() > 1e-6 * (half_q2 + third_p3.abs()) && x * x > 1e-6 * (a3 * a3 + p.abs()) {
         return x;
     }
     // A step that leaves `x` as it is would be repeated as it is: the rest is skipped.
@@ -296,6 +298,18 @@ mod tests {
             found += usize::from(want.is_some());
         }
         assert!(found > 10_000 && flung < 500, "{found} found, {flung} flung");
+    }
+
+    #[test]
+    fn regression_a_nearly_even_quartic_keeps_its_real_roots() {
+        // y⁴ + 3y² + q y − 4 = (y² + 4)(y² − 1) + q y: roots near ±1 and a complex pair. With q
+        // tiny the resolvent's largest root is tiny too, left by cancellation from the closed
+        // form (before the fix, unpolished there, it sent the rough roots to 1e69: no root).
+        for q in [1e-11, 1e-9, 1e-7, -1e-8] {
+            let got = quartic_roots(0.0, 3.0, q, -4.0);
+            assert_eq!(got.len(), 2, "q {q}: {got:?}");
+            assert!((got[0] + 1.0).abs() < 1e-6 && (got[1] - 1.0).abs() < 1e-6, "q {q}: {got:?}");
+        }
     }
 
     #[test]

@@ -5,8 +5,9 @@
 //!
 //! Each ray's answer is the crossing with the smallest `t`, by the same arithmetic for each shape
 //! as [`crate::Geometry::closest`] (which may pick another object only on an exact tie, two
-//! surfaces at the same distance: here the first in test order wins). It depends on nothing but
-//! the ray, so a ray traced alone or among others, on any thread, finds the same hit.
+//! surfaces at the same distance: here the first in test order wins, and for rays that see
+//! through some objects, an object they do not see through). It depends on nothing but the ray,
+//! so a ray traced alone or among others, on any thread, finds the same hit.
 
 use glam::Vec3;
 use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, f32x8, i32x8};
@@ -271,7 +272,8 @@ impl Block {
         self.slabs_ready = true;
     }
 
-    /// Tests `item` against the first `n` rays, keeping each ray's nearest hit.
+    /// Tests `item` against the first `n` rays, keeping each ray's nearest hit (with `SEE`, its
+    /// nearest see-through object, which does not shorten the ray).
     #[inline(always)]
     fn test<const SEE: bool>(&mut self, objects: &[Object], item: &Item, n: usize) {
         if let (Some(cone), Some((centre, radius))) = (self.cone, item.bound)

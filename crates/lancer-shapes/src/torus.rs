@@ -289,6 +289,24 @@ mod tests {
     }
 
     #[test]
+    fn regression_a_ray_nearly_level_with_the_middle_plane_hits_the_tube() {
+        // Through one side of the tube, almost in the torus's plane (before the fix the
+        // resolvent cubic's root, tiny and unpolished, lost both crossings).
+        for (y0, slope) in [(0.0, 1e-7), (0.0, 1e-6), (0.0, 1.6e-5), (0.05, 1e-12), (0.1, 2e-8)] {
+            let (o, d) = (Vec3::new(-5.0, y0, 1.1), Vec3::new(1.0, slope, 0.0));
+            let (ts, n) = crossings(0.25, o, d, f32::NEG_INFINITY, f32::INFINITY);
+            assert_eq!(n, 2, "y0 {y0}, slope {slope}: {:?}", &ts[..n]);
+            let (first, _) = first_hit(0.25, o, d, 0.0, f32::INFINITY).expect("a hit");
+            // At z = 1.1 the line passes beside the hole, inside the tube from one side of its
+            // outer wall to the other: x² + 1.1² = ρ², ρ = 1 + √(0.25² − y0²), t = 5 ∓ x.
+            let rho = 1.0 + (0.25f32 * 0.25 - y0 * y0).sqrt();
+            let x = (rho * rho - 1.1 * 1.1).sqrt();
+            assert!((ts[0] - (5.0 - x)).abs() < 1e-4 && (ts[1] - (5.0 + x)).abs() < 1e-4, "{:?}", &ts[..n]);
+            assert_eq!(first, ts[0]);
+        }
+    }
+
+    #[test]
     fn a_far_grazing_ray_is_still_accurate() {
         // Tangent to the top of the tube from 1000 units away: the hit stays on the surface.
         let o = Vec3::new(-1000.0, 0.2499, 0.0);

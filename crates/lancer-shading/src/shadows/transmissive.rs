@@ -63,8 +63,9 @@ pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32
 }
 
 /// [`through_occluders`] from each hit of `block` along its straight ray, into `out`: the first
-/// stretch of every shadow ray traced together ([`ShadowContext::occluders`]), the rest (past
-/// transparent objects) one by one. Each hit gets what `through_occluders` gives it alone.
+/// stretch of every shadow ray traced together ([`ShadowContext::occluders_through`], convex
+/// transparent objects seen through), the rest (past transparent objects, where something else
+/// lies on the ray) one by one. Each hit gets what `through_occluders` gives it alone.
 pub fn through_occluders_each(ctx: &ShadowContext<'_>, block: &HitBlock<'_>, tint: bool, out: &mut [Vec3]) {
     FIRST.with(|cell| match cell.try_borrow_mut() {
         Ok(mut first) => through_block(ctx, block, tint, out, &mut first),
@@ -225,8 +226,8 @@ fn see_through(ctx: &ShadowContext<'_>, object: u32) -> bool {
 
 /// What a shadow ray from `from` along `dir` whose first stretch meets `first` lets through,
 /// when that decides it without the walk of [`onward`]: all of the light when it meets nothing,
-/// none when it meets an opaque object first, and the share of a transparent object it
-/// [`see_through`] object when nothing else lies on the ray (`!blocked`). `None`: the walk decides.
+/// none when it meets an opaque object first, and the share of a [`see_through`] object it
+/// meets first when nothing else lies on the ray (`!blocked`). `None`: the walk decides.
 #[inline]
 fn settled(ctx: &ShadowContext<'_>, from: Vec3, dir: Vec3, first: Crossing, tint: bool, blocked: bool) -> Option<Vec3> {
     match first {
