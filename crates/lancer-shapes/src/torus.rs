@@ -304,6 +304,18 @@ mod tests {
             assert!((ts[0] - (5.0 - x)).abs() < 1e-4 && (ts[1] - (5.0 + x)).abs() < 1e-4, "{:?}", &ts[..n]);
             assert_eq!(first, ts[0]);
         }
+        // Slopes from 1e-12 to 1e-4, a little off the plane or on it, beside the hole (two
+        // crossings) and across it (four).
+        for k in 0..=32 {
+            let slope = 10f32.powf(-12.0 + k as f32 * 0.25);
+            for y0 in [0.0, 0.05, -0.07, 0.1] {
+                for (z, count) in [(1.1, 2), (0.5, 4)] {
+                    let (ts, n) =
+                        crossings(0.25, Vec3::new(-5.0, y0, z), Vec3::new(1.0, slope, 0.0), f32::MIN, f32::MAX);
+                    assert_eq!(n, count, "slope {slope}, y0 {y0}, z {z}: {:?}", &ts[..n]);
+                }
+            }
+        }
     }
 
     #[test]
