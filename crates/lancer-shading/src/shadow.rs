@@ -71,17 +71,19 @@ impl<'a> ShadowContext<'a> {
     }
 
     /// [`ShadowContext::occluders`] for rays that see through some objects (`through(object)`,
-    /// see [`lancer_shapes::Geometry::first_each_through`]): `found(i, object, crossing, alone)`,
+    /// see [`lancer_shapes::Geometry::first_each_through`], with the point they all go to if
+    /// they do): `found(i, object, crossing, alone)`,
     /// `alone` when the first object met is see-through and nothing else lies on the ray.
     pub fn occluders_through(
         &self,
         lines: Lines<'_>,
+        toward: Option<Vec3>,
         left: impl Fn(usize) -> f32,
         through: impl Fn(u32) -> bool,
         found: impl FnMut(usize, u32, &lancer_shapes::ShapeHit, bool),
     ) {
         self.rays.set(self.rays.get() + lines.len() as u64);
-        self.geometry.first_each_through(lines, left, through, found);
+        self.geometry.first_each_through(lines, toward, left, through, found);
     }
 
     /// How many shadow rays were traced through this context.

@@ -534,7 +534,9 @@ impl Geometry {
                 }
             });
         } else {
-            crate::stream::closest_each(&self.objects, &self.stream, 0, lines, tmax, |lane, i, c, _| found(lane, i, c));
+            crate::stream::closest_each(&self.objects, &self.stream, 0, None, lines, tmax, |lane, i, c, _| {
+                found(lane, i, c)
+            });
         }
     }
 
@@ -550,17 +552,22 @@ impl Geometry {
                 }
             });
         } else {
-            crate::stream::closest_each(&self.objects, &self.stream, 0, lines, tmax, |lane, _, _, _| blocked(lane));
+            crate::stream::closest_each(&self.objects, &self.stream, 0, None, lines, tmax, |lane, _, _, _| {
+                blocked(lane)
+            });
         }
     }
 
     /// [`Geometry::closest_each`] for rays that see through some objects (`through(object)`):
     /// `found(lane, object, crossing, alone)` with each ray's closest crossing, and `alone` when
     /// that is a see-through object's and the ray meets no other object within its limit (its
-    /// own `skip` aside). A ray's answer depends only on the ray.
+    /// own `skip` aside). A ray's answer depends only on the ray. `toward`: the point every ray
+    /// goes to and stops at (within its start's offset), when they all do, which lets a block of
+    /// them be bounded from there.
     pub fn first_each_through(
         &self,
         lines: Lines<'_>,
+        toward: Option<Vec3>,
         tmax: impl Fn(usize) -> f32,
         through: impl Fn(u32) -> bool,
         mut found: impl FnMut(usize, u32, &ShapeHit, bool),
@@ -581,7 +588,7 @@ impl Geometry {
                 .enumerate()
                 .filter(|(_, item)| through(item.object))
                 .fold(0u128, |m, (k, _)| m | 1 << k);
-            crate::stream::closest_each(&self.objects, &self.stream, mask, lines, tmax, found);
+            crate::stream::closest_each(&self.objects, &self.stream, mask, toward, lines, tmax, found);
         }
     }
 

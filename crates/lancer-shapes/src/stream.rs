@@ -145,6 +145,7 @@ pub(crate) fn closest_each(
     objects: &[Object],
     items: &[Item],
     through: u128,
+    toward: Option<Vec3>,
     lines: Lines<'_>,
     tmax: impl Fn(usize) -> f32,
     mut found: impl FnMut(usize, u32, &ShapeHit, bool),
@@ -164,7 +165,7 @@ pub(crate) fn closest_each(
         };
         for start in (0..lines.len()).step_by(BLOCK) {
             let n = (lines.len() - start).min(BLOCK);
-            block.load(lines.range(start..start + n), |l| tmax(start + l));
+            block.load(lines.range(start..start + n), |l| tmax(start + l), toward);
             if through == 0 {
                 for item in items {
                     block.test::<false>(objects, item, n);
@@ -226,7 +227,7 @@ impl Block {
 
     /// Loads the rays of `lines` (at most [`BLOCK`]) with their limits, axis columns eight lanes
     /// at a time.
-    fn load(&mut self, lines: Lines<'_>, tmax: impl Fn(usize) -> f32) {
+    fn load(&mut self, lines: Lines<'_>, tmax: impl Fn(usize) -> f32, toward: Option<Vec3>) {
         let n = lines.len();
         for g in 0..n.div_ceil(W) {
             let at = g * W;
@@ -253,7 +254,10 @@ impl Block {
         }
         self.slabs_ready = false;
         self.best[..n].fill(NONE);
-        self.cone = Cone::of_groups(&self.o, &self.d, n.div_ceil(W));
+        self.cone = match toward {
+            Some(target) => Cone::toward(&self.o, target, n.div_ceil(W)),
+            None => Cone::of_groups(&self.o, &self.d, n.div_ceil(W)),
+        };
     }
 
     /// What the box tests need of the first `n` rays (`1 / d` and the flat axes): made when
@@ -515,6 +519,41 @@ impl Cone {
         (sin < 1.0 && apex.is_finite() && spread.is_finite()).then_some(cone)
     }
 
+    /// The cone of a block's rays that all go to `target` and stop there (shadow rays towards a
+    /// point light: each ray's limit is its distance to the target, give or take its start's
+    /// offset): from the target, around the line to the centre of the box of their origins,
+    /// wide enough for that box's ball. One pass over the origins, where [`Cone::of_groups`]
+    /// makes two. `None` when the target is within the ball (or anything is not finite).
+    fn toward(o: &[[Fx; GROUPS]; 3], target: Vec3, groups: usize) -> Option<Cone> {
+        let (mut lo, mut hi) = ([Fx::splat(f32::INFINITY); 3], [Fx::splat(f32::NEG_INFINITY); 3]);
+        let mut finite = ALL;
+        for axis in 0..3 {
+            for &v in &o[axis][..groups] {
+                finite &= v.abs().cmp_lt(Fx::splat(f32::INFINITY));
+                (lo[axis], hi[axis]) = (lo[axis].min(v), hi[axis].max(v));
+            }
+        }
+        if finite.move_mask() != FULL || !target.is_finite() {
+            return None;
+        }
+        let low = |v: Fx| v.to_array().into_iter().fold(f32::INFINITY, f32::min);
+        let high = |v: Fx| v.to_array().into_iter().fold(f32::NEG_INFINITY, f32::max);
+        let (min, max) =
+            (Vec3::new(low(lo[0]), low(lo[1]), low(lo[2])), Vec3::new(high(hi[0]), high(hi[1]), high(hi[2])));
+        let centre = (min + max) * 0.5;
+        // The box's half diagonal, a little generous: every origin is within it of the centre.
+        let radius = (max - min).length() * 0.5 * (1.0 + 1e-4) + centre.abs().max_element() * 1e-6;
+        let v = centre - target;
+        let distance = v.length();
+        let sin = radius / distance * (1.0 + 1e-3) + 1e-6;
+        // Where a ray ends near the target (its start's offset, the rounding of its direction
+        // over its length): well within this of the apex and of the cone's side.
+        let spread = (target.abs().max_element() + distance) * 1e-5;
+        let axis = v / distance;
+        let cone = Cone { apex: target, spread, axis, cos: (1.0 - sin * sin).max(0.0).sqrt(), sin };
+        (sin < 1.0 && distance.is_finite() && axis.is_finite() && spread.is_finite()).then_some(cone)
+    }
+
     /// Whether a ray of the block may meet the ball of `radius` around `centre`: the ball comes
     /// within `spread` of the cone.
     #[inline]
@@ -635,6 +674,7 @@ mod tests {
             let mut got = vec![None; origin.len()];
             g.first_each_through(
                 lines,
+                None,
                 |l| limit[l],
                 |i| see[i as usize],
                 |l, i, c, alone| got[l] = Some((i, *c, alone)),
@@ -735,6 +775,58 @@ mod tests {
     }
 
     #[test]
+    fn a_cone_from_the_light_keeps_every_ball_a_shadow_ray_meets() {
+        // Blocks of shadow rays as the visibility system makes them: from hit points (spread
+        // over up to a few units, near the origin or 10⁴ away), each started a hair off its
+        // point, along the unit direction from the point to the light and as long as what is
+        // left of that distance. Balls on a ray's segment, their surface a millionth of their
+        // radius from it, are never culled; balls elsewhere often are.
+        let mut f = crate::testing::uniform(0x6A09_E667_F3BC_C908);
+        let (mut met, mut culled) = (0, 0);
+        for case in 0..2_000 {
+            let far = if case % 4 == 0 { 1e4 } else { 1.0 };
+            let base = Vec3::new(f(-20.0, 20.0), f(-20.0, 20.0), f(-20.0, 20.0)) * far;
+            let spread = [1e-3, 0.3, 3.0][case % 3];
+            let light =
+                base + Vec3::new(f(-1.0, 1.0), f(0.2, 1.0), f(-1.0, 1.0)).normalize() * f(2.0, 40.0) * (1.0 + spread);
+            let lanes = if case % 9 == 0 { 1 } else { BLOCK };
+            let (mut origin, mut dir, mut left) = (Vec::new(), Vec::new(), Vec::new());
+            for lane in 0..lanes {
+                // Every fourth hit at a corner of the box: the ball around it is no wider.
+                let sign = |x: f32| if x < 0.0 { -1.0 } else { 1.0 };
+                let mut at = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0));
+                if lane % 4 == 0 {
+                    at = at.map(sign);
+                }
+                let point = base + at * spread;
+                let to = light - point;
+                let (d, dist) = (to.normalize(), to.length());
+                let offset = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * point.abs().max_element() * 1e-6;
+                origin.push(point + offset);
+                dir.push(d);
+                left.push(dist - offset.dot(d));
+            }
+            let mut block = super::Block::new();
+            let (o_packets, d_packets) = (crate::testing::packets(&origin), crate::testing::packets(&dir));
+            let lines = Lines { origin: &o_packets, dir: &d_packets, skip: &[super::NONE; BLOCK][..lanes] };
+            block.load(lines, |l| left[l], Some(light));
+            let Some(cone) = block.cone else { continue };
+            for _ in 0..20 {
+                // Small balls near the origins too, where a cone too narrow would show.
+                let k = (f(0.0, lanes as f32) as usize).min(lanes - 1);
+                let radius = if met % 2 == 0 { f(1e-3, 2.0) * far.sqrt() } else { f(1e-6, 1e-4) * spread };
+                let along = origin[k] + dir[k] * f(0.0, if met % 2 == 0 { 1.0 } else { 0.05 }) * left[k];
+                let off = dir[k].any_orthonormal_vector() * radius * (1.0 - 1e-6);
+                assert!(cone.may_meet(along + off, radius), "case {case}: a ball on ray {k} was culled");
+                met += 1;
+                let away = light + (light - base).normalize() * f(1.0, 30.0) * (1.0 + spread) * far.sqrt();
+                culled += usize::from(!cone.may_meet(away, 0.1));
+            }
+        }
+        assert!(met > 30_000 && culled > 10_000, "{met} kept, {culled} culled");
+    }
+
+    #[test]
     fn a_block_cone_keeps_every_ball_one_of_its_rays_meets() {
         let mut f = crate::testing::uniform(0x2545_F491_4F6C_DD1D);
         let (mut met, mut culled) = (0, 0);
@@ -755,7 +847,7 @@ mod tests {
             let mut block = super::Block::new();
             let (o_packets, d_packets) = (crate::testing::packets(&origin), crate::testing::packets(&dir));
             let lines = Lines { origin: &o_packets, dir: &d_packets, skip: &[super::NONE; BLOCK][..lanes] };
-            block.load(lines, |_| f32::INFINITY);
+            block.load(lines, |_| f32::INFINITY, None);
             let Some(cone) = block.cone else { continue };
             for _ in 0..20 {
                 // A ball on one of the rays, just touching it or clear of all of them.

@@ -98,6 +98,7 @@ fn through_block(
     block.rays_where(ahead, |lines, which| {
         ctx.occluders_through(
             lines,
+            Some(block.target()),
             |r| block.left(which[r]),
             |object| see_through(ctx, object),
             |r, object, c, alone| (first[which[r]], blocked[which[r]]) = (Some((object, *c)), !alone),
@@ -196,6 +197,7 @@ fn through_blocks(
         let mut blocked = [true; BLOCK];
         ctx.occluders_through(
             lines,
+            None,
             |r| left[r],
             |object| see_through(ctx, object),
             |r, object, c, alone| (first[r], blocked[r]) = (Some((object, *c)), !alone),
