@@ -137,10 +137,10 @@ thread_local! {
 /// For each ray `lane` of `lines`, the closest crossing with `0 < t < tmax(lane)` of any object
 /// but its `skip`: `found(lane, object, crossing, alone)` for each ray that has one, in lane
 /// order. The objects whose bit is set in `through` (see-through: the item at position `k` of
-/// `items` is bit `k`) do not
-/// shorten a ray: every other object is tested over its whole length, so `alone` tells that the
-/// ray meets nothing else than the see-through object it meets first (always `false` when that
-/// object is not see-through).
+/// `items` is bit `k`) do not shorten a ray: every other object is tested over its whole length,
+/// so `alone` tells that the ray meets nothing else than the see-through object it meets first
+/// (always `false` when that object is not see-through). `toward`: the point every ray goes to
+/// and stops at, when they all do (a block's cone is then made from there).
 pub(crate) fn closest_each(
     objects: &[Object],
     items: &[Item],
@@ -360,9 +360,7 @@ impl Block {
             self.hit[g * W + k] = ShapeHit { t, normal, part: 0, bary: glam::Vec2::ZERO };
         }
     }
-}
 
-impl Block {
     /// A see-through object met by ray `lane` at `c`: kept if it is the nearest such so far.
     #[inline]
     fn see(&mut self, lane: usize, object: u32, c: ShapeHit) {
@@ -463,34 +461,47 @@ struct Cone {
     sin: f32,
 }
 
+/// The least of a group's lanes.
+fn low(v: Fx) -> f32 {
+    v.to_array().into_iter().fold(f32::INFINITY, f32::min)
+}
+
+/// The greatest of a group's lanes.
+fn high(v: Fx) -> f32 {
+    v.to_array().into_iter().fold(f32::NEG_INFINITY, f32::max)
+}
+
+/// The box of the origins `o` in the first `groups` groups; `None` if one is not finite.
+fn origin_box(o: &[[Fx; GROUPS]; 3], groups: usize) -> Option<(Vec3, Vec3)> {
+    let (mut lo, mut hi) = ([Fx::splat(f32::INFINITY); 3], [Fx::splat(f32::NEG_INFINITY); 3]);
+    let mut finite = ALL;
+    for axis in 0..3 {
+        for &v in &o[axis][..groups] {
+            // Not NaN and not infinite: `min`/`max` would pass over a NaN.
+            finite &= v.abs().cmp_lt(Fx::splat(f32::INFINITY));
+            (lo[axis], hi[axis]) = (lo[axis].min(v), hi[axis].max(v));
+        }
+    }
+    if finite.move_mask() != FULL {
+        return None;
+    }
+    Some((Vec3::new(low(lo[0]), low(lo[1]), low(lo[2])), Vec3::new(high(hi[0]), high(hi[1]), high(hi[2]))))
+}
+
 impl Cone {
     /// The cone of a block's rays `o + t d`, `t ≥ 0`, in its first `groups` groups;
     /// `None` if their directions spread over more than a half-space (or one is zero or not
     /// finite, or an origin is not finite).
     fn of_groups(o: &[[Fx; GROUPS]; 3], d: &[[Fx; GROUPS]; 3], groups: usize) -> Option<Cone> {
         let lanes = |v: Fx| v.to_array();
-        let (mut lo, mut hi, mut sum) =
-            ([Fx::splat(f32::INFINITY); 3], [Fx::splat(f32::NEG_INFINITY); 3], [Fx::ZERO; 3]);
-        let mut finite = ALL;
-        for g in 0..groups {
-            for axis in 0..3 {
-                let v = o[axis][g];
-                // Not NaN and not infinite: `min`/`max` would pass over a NaN.
-                finite &= v.abs().cmp_lt(Fx::splat(f32::INFINITY));
-                (lo[axis], hi[axis]) = (lo[axis].min(v), hi[axis].max(v));
-                sum[axis] += d[axis][g];
+        let (min, max) = origin_box(o, groups)?;
+        let apex = (min + max) * 0.5;
+        let mut sum = [Fx::ZERO; 3];
+        for (axis, sum) in sum.iter_mut().enumerate() {
+            for &v in &d[axis][..groups] {
+                *sum += v;
             }
         }
-        if finite.move_mask() != FULL {
-            return None;
-        }
-        let low = |v: Fx| lanes(v).into_iter().fold(f32::INFINITY, f32::min);
-        let high = |v: Fx| lanes(v).into_iter().fold(f32::NEG_INFINITY, f32::max);
-        let apex = Vec3::new(
-            (low(lo[0]) + high(hi[0])) * 0.5,
-            (low(lo[1]) + high(hi[1])) * 0.5,
-            (low(lo[2]) + high(hi[2])) * 0.5,
-        );
         // Any axis among the directions will do: the half-angle is measured from it.
         let axis = Vec3::new(lanes(sum[0]).iter().sum(), lanes(sum[1]).iter().sum(), lanes(sum[2]).iter().sum())
             .try_normalize()?;
@@ -525,21 +536,10 @@ impl Cone {
     /// wide enough for that box's ball. One pass over the origins, where [`Cone::of_groups`]
     /// makes two. `None` when the target is within the ball (or anything is not finite).
     fn toward(o: &[[Fx; GROUPS]; 3], target: Vec3, groups: usize) -> Option<Cone> {
-        let (mut lo, mut hi) = ([Fx::splat(f32::INFINITY); 3], [Fx::splat(f32::NEG_INFINITY); 3]);
-        let mut finite = ALL;
-        for axis in 0..3 {
-            for &v in &o[axis][..groups] {
-                finite &= v.abs().cmp_lt(Fx::splat(f32::INFINITY));
-                (lo[axis], hi[axis]) = (lo[axis].min(v), hi[axis].max(v));
-            }
-        }
-        if finite.move_mask() != FULL || !target.is_finite() {
+        let (min, max) = origin_box(o, groups)?;
+        if !target.is_finite() {
             return None;
         }
-        let low = |v: Fx| v.to_array().into_iter().fold(f32::INFINITY, f32::min);
-        let high = |v: Fx| v.to_array().into_iter().fold(f32::NEG_INFINITY, f32::max);
-        let (min, max) =
-            (Vec3::new(low(lo[0]), low(lo[1]), low(lo[2])), Vec3::new(high(hi[0]), high(hi[1]), high(hi[2])));
         let centre = (min + max) * 0.5;
         // The box's half diagonal, a little generous: every origin is within it of the centre.
         let radius = (max - min).length() * 0.5 * (1.0 + 1e-4) + centre.abs().max_element() * 1e-6;

@@ -299,9 +299,8 @@ fn onward(
         if traced && see_through(ctx, object) && !ctx.geometry.any_hit_without(from, dir, left, object) {
             return light * share(ctx, object, from.point, dir, &crossing, tint);
         }
+        light *= share(ctx, object, from.point, dir, &crossing, tint);
         let hit = ctx.geometry.objects[object as usize].hit(object, from.point, dir, &crossing);
-        // As `share`, from the surface described here.
-        light *= if tint { m.alpha * ctx.color_at(&hit).min(Vec3::ONE) } else { Vec3::splat(m.alpha) };
         match ctx.geometry.past(&hit, dir) {
             Some(past) => surface = past,
             // It never ends (a plane's half-space): the light is inside it.
