@@ -20,15 +20,76 @@ pub fn surface_color(
             // A hair of offset keeps points on a cell boundary (a floor at y = 0, whose hit points
             // scatter around 0 by rounding) on one side of it.
             let c = local / scale + Vec3::splat(1e-4);
-            // The parity of the cell: integer arithmetic (wrapping: far cells keep alternating).
-            let parity = cell(c.x).wrapping_add(cell(c.y)).wrapping_add(cell(c.z)) & 1;
-            if parity == 0 { material.color } else { other }
+            if odd_cell(c) { other } else { material.color }
         }
         Pattern::Image { texture, scale } => {
             let uv = if matches!(shape, Shape::Mesh(_)) { mesh_uv } else { shape.uv(local, scale) };
             textures.get(texture as usize).map_or(material.color, |t| t.sample(uv.x, uv.y))
         }
     }
+}
+
+/// [`surface_color`] of eight hits on one object (of `material`, shaped `shape`, not a mesh)
+/// at the object-space points `local`: the same colours, with the checker's parity taken eight
+/// lanes at a time (the same arithmetic as [`odd_cell`]'s). Only the lanes set in `on` are
+/// looked at; the others come out as anything.
+pub(crate) fn surface_colors(
+    material: &Material,
+    shape: &Shape,
+    local: &lancer_core::rays::Packet,
+    on: u8,
+    textures: &[Texture],
+) -> lancer_core::rays::Packet {
+    use wide::{CmpEq, CmpLt, f32x8};
+    let lane = |k: usize| Vec3::new(local[0][k], local[1][k], local[2][k]);
+    let each = |out: &mut lancer_core::rays::Packet| {
+        for k in crate::lanes::set(on) {
+            let c = surface_color(material, shape, lane(k), glam::Vec2::ZERO, textures);
+            (out[0][k], out[1][k], out[2][k]) = (c.x, c.y, c.z);
+        }
+    };
+    let splat = |c: Vec3| c.to_array().map(|v| [v; 8]);
+    match material.pattern {
+        Pattern::Solid => splat(material.color),
+        Pattern::Checker { other, scale } => {
+            let c = local.map(|axis| f32x8::new(axis) / f32x8::splat(scale) + f32x8::splat(1e-4));
+            let live = crate::lanes::mask(on);
+            let near = c.iter().fold(live, |m, v| m & v.abs().cmp_lt(f32x8::splat(8_388_608.0)));
+            if near.move_mask() as u8 != on {
+                // A lane far away (or NaN): each lane by itself.
+                let mut out = splat(material.color);
+                each(&mut out);
+                return out;
+            }
+            let odd = c.iter().fold(f32x8::ZERO, |parity, v| {
+                let half = v.floor() * f32x8::splat(0.5);
+                parity ^ !half.floor().cmp_eq(half)
+            });
+            let (even, odd_colour) = (splat(material.color), splat(other));
+            std::array::from_fn(|a| odd.blend(f32x8::new(odd_colour[a]), f32x8::new(even[a])).to_array())
+        }
+        Pattern::Image { .. } => {
+            let mut out = splat(material.color);
+            each(&mut out);
+            out
+        }
+    }
+}
+
+/// Whether the cell of `c` is odd: the parity of the sum of its coordinates' [`cell`]s
+/// (integer arithmetic, wrapping: far cells keep alternating). Within 2^23 of the origin
+/// (every scene's floor) by float arithmetic on the three axes at once, exact there: `f` is
+/// a whole number, `f / 2` is exact, and `f` is odd where its half has a fraction.
+#[inline]
+fn odd_cell(c: Vec3) -> bool {
+    // (A NaN fails the comparison, and takes the integer path.)
+    if c.abs().cmplt(Vec3::splat(8_388_608.0)).all() {
+        let f = c.floor();
+        let half = f * 0.5;
+        return half.floor().cmpne(half).bitmask().count_ones() & 1 == 1;
+    }
+    // Far away, infinite or NaN: the integers themselves, saturated as the cast saturates.
+    cell(c.x).wrapping_add(cell(c.y)).wrapping_add(cell(c.z)) & 1 == 1
 }
 
 /// `x.floor() as i64`, without the call to `floorf` the baseline x86-64 build makes for a
@@ -58,6 +119,77 @@ mod tests {
         assert_eq!(at(-0.5, 0.0, 0.5), Vec3::ZERO);
         // Rounding noise around y = 0 does not flip the colour.
         assert_eq!(at(0.5, -1e-6, 0.5), at(0.5, 1e-6, 0.5));
+    }
+
+    #[test]
+    fn eight_colours_at_once_are_those_of_each_hit_alone() {
+        // Checkers of several scales at points near and on cell boundaries, far away (past the
+        // float path), NaN; a solid colour and an image; lanes left out hold anything.
+        let checker = |scale: f32| Material {
+            color: Vec3::new(0.9, 0.8, 0.7),
+            pattern: Pattern::Checker { other: Vec3::new(0.1, 0.2, 0.3), scale },
+            ..Material::default()
+        };
+        let image = Material { pattern: Pattern::Image { texture: 0, scale: 2.0 }, ..Material::default() };
+        let textures = [Texture { width: 2, height: 1, pixels: vec![Vec3::X, Vec3::Z] }];
+        let solid = Material { color: Vec3::new(0.25, 0.5, 0.75), ..Material::default() };
+        let materials = [checker(1.0), checker(0.37), checker(3.0), solid, image];
+        let mut f = 0.123f32;
+        let mut next = move || {
+            f = (f * 7.13 + 0.37).fract();
+            f
+        };
+        let mut odd = 0;
+        for round in 0..3000 {
+            let material = &materials[round % materials.len()];
+            let on = (round as u8).wrapping_mul(37) | 1;
+            let local: lancer_core::rays::Packet = std::array::from_fn(|a| {
+                std::array::from_fn(|k| match (round / 5 + k + a) % 9 {
+                    0 => (next() * 20.0 - 10.0).round() - 1e-4,
+                    1 => 0.0,
+                    2 => -next() * 3.0,
+                    3 if round % 50 == 0 => 1e9,
+                    4 if round % 70 == 0 => f32::NAN,
+                    _ => next() * 40.0 - 20.0,
+                })
+            });
+            let got = surface_colors(material, &Shape::Plane, &local, on, &textures);
+            for k in (0..8).filter(|k| on >> k & 1 == 1) {
+                let p = Vec3::new(local[0][k], local[1][k], local[2][k]);
+                let want = surface_color(material, &Shape::Plane, p, glam::Vec2::ZERO, &textures);
+                let lane = Vec3::new(got[0][k], got[1][k], got[2][k]);
+                assert_eq!(lane.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits), "{p} {k}");
+                odd += usize::from(want == Vec3::new(0.1, 0.2, 0.3));
+            }
+        }
+        assert!(odd > 1000, "{odd} odd cells");
+    }
+
+    #[test]
+    fn the_odd_cells_are_those_whose_floors_sum_to_an_odd_number() {
+        // Near and far, on cell boundaries, at the edge of the float path (2^23) and past it,
+        // infinite and NaN: the same parity as the sum of the floors as integers.
+        let mut values = vec![0.0f32, -0.0, 0.5, -0.5, 1.0, -1.0, 2.0, -2.0, 3.0, -3.0, 1e-4, -1e-4];
+        values.extend([0.999_999_94, -0.999_999_94, 1.000_000_1, -1.000_000_1, 4_194_303.5, -4_194_303.5]);
+        values.extend([8_388_607.0, -8_388_607.0, 8_388_607.5, -8_388_607.5, 8_388_608.0, -8_388_608.0]);
+        values.extend([8_388_609.0, 1.6e7, -1.6e7, 9.2e18, -9.2e18, 1e30, -1e30, f32::MAX, f32::MIN]);
+        values.extend([f32::INFINITY, f32::NEG_INFINITY, f32::NAN, f32::MIN_POSITIVE, -f32::MIN_POSITIVE]);
+        values.extend((0..300).map(|i| (i as f32 - 150.0) * 0.137));
+        let want = |c: Vec3| {
+            let floor = |x: f32| x.floor() as i64;
+            floor(c.x).wrapping_add(floor(c.y)).wrapping_add(floor(c.z)) & 1 == 1
+        };
+        let (mut odd, mut seen) = (0, 0);
+        for (i, &x) in values.iter().enumerate() {
+            for (j, &y) in values.iter().enumerate().step_by(7) {
+                let z = values[(i * 31 + j * 17) % values.len()];
+                for c in [Vec3::new(x, y, z), Vec3::new(z, x, y), Vec3::new(x, 0.0, y)] {
+                    assert_eq!(odd_cell(c), want(c), "{c}");
+                    (odd, seen) = (odd + usize::from(want(c)), seen + 1);
+                }
+            }
+        }
+        assert!(odd > seen / 4 && odd < seen * 3 / 4, "{odd} odd of {seen}");
     }
 
     #[test]

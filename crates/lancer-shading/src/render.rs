@@ -489,26 +489,97 @@ fn camera_system(
     }
 }
 
-/// Closest hit of every ray, with everything terms need about the surface there.
+/// Closest hit of every ray, with everything terms need about the surface there. Hits on
+/// objects with a world-space form (spheres and planes) wait for the rest of their group of
+/// eight lanes: where they are all on one object, they are described eight at a time
+/// ([`lancer_shapes::Object::hit_group`], the bits of one at a time).
 fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
     let objects = &ctx.geometry.objects;
     for (rays, hits) in world.query_mut::<(&Rays, &mut Hits)>() {
+        let mut waiting = [0u8; CHUNK_LANES / PACKET];
         let found = |lane: usize, i: u32, c: &lancer_shapes::ShapeHit| {
-            let h = objects[i as usize].hit(i, rays.origin.at(lane), rays.dir.at(lane), c);
-            hits.t[lane] = h.t;
-            hits.point.set(lane, h.point);
-            hits.local[lane] = h.local;
-            hits.uv[lane] = h.uv;
-            hits.normal.set(lane, h.normal);
-            hits.shading.set(lane, h.shading);
-            hits.error[lane] = h.error;
-            hits.front[lane] = h.front;
-            hits.object[lane] = h.object;
-            hits.material[lane] = objects[i as usize].material;
-            hits.color.set(lane, ctx.surface_color(i, h.local, h.uv));
+            if objects[i as usize].has_world_form() {
+                (hits.t[lane], hits.object[lane]) = (c.t, i);
+                waiting[lane / PACKET] |= 1 << (lane % PACKET);
+            } else {
+                describe(ctx, rays, hits, lane, i, c);
+            }
         };
         let lines = Lines { origin: rays.origin.packets(), dir: rays.dir.packets(), skip: &rays.skip };
         ctx.geometry.closest_each(lines, |_| f32::INFINITY, found);
+        for (g, &lanes) in waiting.iter().enumerate().take(rays.len().div_ceil(PACKET)) {
+            if lanes == 0 {
+                continue;
+            }
+            let base = g * PACKET;
+            let object = hits.object[base + lanes.trailing_zeros() as usize];
+            let t: [f32; PACKET] = std::array::from_fn(|k| hits.t.get(base + k).copied().unwrap_or(0.0));
+            let one = crate::lanes::set(lanes).all(|k| hits.object[base + k] == object);
+            let (origin, dir) = (&rays.origin.packets()[g], &rays.dir.packets()[g]);
+            match objects[object as usize].hit_group(origin, dir, &t).filter(|_| one) {
+                Some(h) => describe_group(ctx, hits, g, lanes, object, &h),
+                None => {
+                    for k in crate::lanes::set(lanes) {
+                        let (lane, object) = (base + k, hits.object[base + k]);
+                        let c =
+                            lancer_shapes::ShapeHit { t: t[k], normal: Vec3::ZERO, part: 0, bary: glam::Vec2::ZERO };
+                        describe(ctx, rays, hits, lane, object, &c);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The hit of `lane` on object `i` at the crossing `c`, into the hit columns.
+#[inline(always)]
+fn describe(ctx: &ShadeContext<'_>, rays: &Rays, hits: &mut Hits, lane: usize, i: u32, c: &lancer_shapes::ShapeHit) {
+    let object = &ctx.geometry.objects[i as usize];
+    let h = object.hit(i, rays.origin.at(lane), rays.dir.at(lane), c);
+    hits.t[lane] = h.t;
+    hits.point.set(lane, h.point);
+    hits.local[lane] = h.local;
+    hits.uv[lane] = h.uv;
+    hits.normal.set(lane, h.normal);
+    hits.shading.set(lane, h.shading);
+    hits.error[lane] = h.error;
+    hits.front[lane] = h.front;
+    hits.object[lane] = h.object;
+    hits.material[lane] = object.material;
+    hits.color.set(lane, ctx.surface_color(i, h.local, h.uv));
+}
+
+/// The hits `h` of the lanes set in `lanes` of group `g`, all on `object`, into the hit columns:
+/// what [`describe`] writes for each of them.
+#[inline(always)]
+fn describe_group(
+    ctx: &ShadeContext<'_>,
+    hits: &mut Hits,
+    g: usize,
+    lanes: u8,
+    object: u32,
+    h: &lancer_shapes::HitGroup,
+) {
+    let o = &ctx.geometry.objects[object as usize];
+    let material = &ctx.materials[o.material as usize];
+    let color = crate::pattern::surface_colors(material, &o.shape, &h.local, lanes, ctx.textures);
+    let on = crate::lanes::mask(lanes);
+    let put = |column: &mut lancer_core::rays::Vec3s, v: &lancer_core::rays::Packet| {
+        let packet = &mut column.packets_mut()[g];
+        *packet = std::array::from_fn(|a| on.blend(wide::f32x8::new(v[a]), wide::f32x8::new(packet[a])).to_array());
+    };
+    put(&mut hits.point, &h.point);
+    put(&mut hits.normal, &h.normal);
+    put(&mut hits.shading, &h.normal);
+    put(&mut hits.color, &color);
+    let base = g * PACKET;
+    for k in crate::lanes::set(lanes) {
+        let lane = base + k;
+        hits.local[lane] = lancer_core::rays::lane(&h.local, k);
+        hits.uv[lane] = glam::Vec2::ZERO;
+        hits.error[lane] = h.error[k];
+        hits.front[lane] = h.front >> k & 1 == 1;
+        hits.material[lane] = o.material;
     }
 }
 

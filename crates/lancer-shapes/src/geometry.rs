@@ -228,6 +228,90 @@ impl Object {
         }
     }
 
+    /// Whether the object has a world-space form (a sphere scaled alike on every axis, a
+    /// plane): its hits are described from their distance alone, and eight at a time by
+    /// [`Object::hit_group`].
+    #[inline]
+    pub fn has_world_form(&self) -> bool {
+        !matches!(self.fast, Fast::None)
+    }
+
+    /// [`Object::hit`] for eight rays at once (`o`, `d` as packets, their crossings at `t`)
+    /// when the object has a world-space form (a sphere scaled alike on every axis, a plane):
+    /// the same operations in the same order, eight lanes (four in f64) at a time, so each lane
+    /// gets the bits `hit` gives it alone. `None` for any other object. Lanes the caller has no
+    /// crossing for come out as garbage, to be left out.
+    pub fn hit_group(&self, o: &Packet, d: &Packet, t: &[f32; 8]) -> Option<HitGroup> {
+        use wide::{CmpGt, CmpLt, f32x8, f64x4};
+        // `o.as_dvec3() + t as f64 * d.as_dvec3()`, four lanes at a time.
+        let in_f64 = |v: &[f32; 8], half: usize| f64x4::new(std::array::from_fn(|k| v[4 * half + k] as f64));
+        let on_line = |half: usize| -> [f64x4; 3] {
+            let t = in_f64(t, half);
+            std::array::from_fn(|a| in_f64(&o[a], half) + t * in_f64(&d[a], half))
+        };
+        // Two halves of f64 lanes rounded into eight f32 lanes.
+        let to_f32 = |halves: [[f64x4; 3]; 2]| -> [f32x8; 3] {
+            std::array::from_fn(|a| {
+                let (lo, hi) = (halves[0][a].to_array(), halves[1][a].to_array());
+                f32x8::new(std::array::from_fn(|k| if k < 4 { lo[k] as f32 } else { hi[k - 4] as f32 }))
+            })
+        };
+        let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let (point, local, normal) = match self.fast {
+            Fast::None => return None,
+            Fast::Sphere { centre, radius, .. } => {
+                let c = centre.as_dvec3().to_array().map(f64x4::splat);
+                // `u = (p - centre).normalize_or(DVec3::Y)`.
+                let u = [0, 1].map(|half| -> [f64x4; 3] {
+                    let p = on_line(half);
+                    let v: [f64x4; 3] = std::array::from_fn(|a| p[a] - c[a]);
+                    let rcp = f64x4::ONE / (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                    let ok = rcp.abs().cmp_lt(f64x4::splat(f64::INFINITY)) & rcp.cmp_gt(f64x4::ZERO);
+                    let fallback = [f64x4::ZERO, f64x4::ONE, f64x4::ZERO];
+                    std::array::from_fn(|a| ok.blend(v[a] * rcp, fallback[a]))
+                });
+                let r = f64x4::splat(radius);
+                let ru = u.map(|h| h.map(|x| r * x));
+                // `(centre + radius u).as_vec3()`, and `(radius u).as_vec3()` into object space.
+                let point = to_f32(ru.map(|h| std::array::from_fn(|a| c[a] + h[a])));
+                let local = linear(&self.object_from_world.matrix3, &to_f32(ru), None);
+                // `u.as_vec3().normalize_or(Vec3::Y)`.
+                let unit = to_f32(u);
+                let rcp = f32x8::ONE / dot(&unit, &unit).sqrt();
+                let ok = rcp.abs().cmp_lt(f32x8::splat(f32::INFINITY)) & rcp.cmp_gt(f32x8::ZERO);
+                let fallback = [f32x8::ZERO, f32x8::ONE, f32x8::ZERO];
+                let normal: [f32x8; 3] = std::array::from_fn(|a| ok.blend(unit[a] * rcp, fallback[a]));
+                (point, local, normal)
+            }
+            Fast::Plane { normal, offset } => {
+                let n = normal.as_dvec3().to_array().map(f64x4::splat);
+                let off = f64x4::splat(offset as f64);
+                // `(p - n * (n.dot(p) - offset)).as_vec3()`.
+                let point = to_f32([0, 1].map(|half| {
+                    let p = on_line(half);
+                    let k = (n[0] * p[0] + n[1] * p[1] + n[2] * p[2]) - off;
+                    std::array::from_fn(|a| p[a] - n[a] * k)
+                }));
+                let m = &self.object_from_world;
+                let placed = linear(&m.matrix3, &point, Some(Vec3::from(m.translation)));
+                // `* Vec3::new(1.0, 0.0, 1.0)`: y times zero (its sign, or NaN, kept as it is).
+                let local = [placed[0] * f32x8::ONE, placed[1] * f32x8::ZERO, placed[2] * f32x8::ONE];
+                (point, local, normal.to_array().map(f32x8::splat))
+            }
+        };
+        let gt_max = crate::stream::gt_max;
+        let reach = gt_max(point[0].abs(), gt_max(point[1].abs(), point[2].abs()));
+        let error = (f32x8::splat(f32::EPSILON) * reach).to_array();
+        let front = dot(&normal, &d.map(f32x8::new)).cmp_lt(f32x8::ZERO).move_mask() as u8;
+        Some(HitGroup {
+            point: point.map(|c| c.to_array()),
+            local: local.map(|c| c.to_array()),
+            normal: normal.map(|c| c.to_array()),
+            error,
+            front,
+        })
+    }
+
     /// Whether the world point `p` is inside the object's solid (never for a shape with no
     /// inside: a disk, an open mesh). A plane's inside is the half-space below it.
     pub fn contains(&self, p: Vec3) -> bool {
@@ -246,10 +330,54 @@ impl Object {
         }
     }
 
+    /// A world-space ball (centre, radius) that holds the object, from the shape's own ball
+    /// ([`Shape::ball_radius`]) through the placement: its radius times a bound on how much the
+    /// placement stretches a vector (the square root of the largest row sum of `MᵀM`, `M` the
+    /// linear part: its largest singular value exactly for a rotation and a uniform scale).
+    /// `None` for shapes with no such ball.
+    pub fn ball(&self) -> Option<(Vec3, f32)> {
+        let r = self.shape.ball_radius()?;
+        let m = self.world_from_object.matrix3;
+        let cols = [m.x_axis, m.y_axis, m.z_axis];
+        let stretch2 = (0..3).map(|i| (0..3).map(|j| cols[i].dot(cols[j]).abs()).sum::<f32>()).fold(0.0f32, f32::max);
+        let centre = Vec3::from(self.world_from_object.translation);
+        let radius = r * stretch2.sqrt();
+        (centre.is_finite() && radius.is_finite()).then_some((centre, radius))
+    }
+
     /// World-space bounds; `None` for unbounded shapes.
     pub fn bounds(&self) -> Option<Aabb> {
         self.shape.bounds().map(|b| b.transformed(&self.world_from_object))
     }
+}
+
+/// `m v (+ translation)` lane by lane, in glam's order: `((x_axis v.x + y_axis v.y) + z_axis
+/// v.z) + translation`.
+#[inline(always)]
+fn linear(m: &Mat3A, v: &[wide::f32x8; 3], translation: Option<Vec3>) -> [wide::f32x8; 3] {
+    use wide::f32x8;
+    let col = |c: glam::Vec3A, a: usize| f32x8::splat(c[a]);
+    std::array::from_fn(|a| {
+        let sum = col(m.x_axis, a) * v[0] + col(m.y_axis, a) * v[1] + col(m.z_axis, a) * v[2];
+        translation.map_or(sum, |t| sum + f32x8::splat(t[a]))
+    })
+}
+
+/// Eight hits described at once ([`Object::hit_group`]): for each lane, what [`Hit`] holds of a
+/// world-space sphere or plane (whose shading normal is its normal, its texture coordinates
+/// zero).
+#[derive(Clone, Copy, Debug)]
+pub struct HitGroup {
+    /// The hit points.
+    pub point: Packet,
+    /// The object-space points.
+    pub local: Packet,
+    /// The unit outward normals.
+    pub normal: Packet,
+    /// Bounds on the points' distances from the surface.
+    pub error: [f32; 8],
+    /// Bit `k` set where lane `k`'s ray arrived from outside.
+    pub front: u8,
 }
 
 /// A ray–surface hit in world space: everything the shading needs, found once per ray.
@@ -458,8 +586,9 @@ impl Geometry {
         let v = |p: &Packet| p.map(f32x8::new);
         let (p, n, d) = (v(point), v(normal), v(dir));
         let mask = |on: [bool; 8]| f32x8::new(on.map(|b| if b { f32::from_bits(u32::MAX) } else { 0.0 }));
-        let kind = object
-            .map(|i| self.objects.get(i as usize).map_or((false, false), |o| (o.shape.is_flat(), o.shape.is_convex())));
+        let kind: [(bool, bool); 8] = std::array::from_fn(|k| {
+            self.objects.get(object[k] as usize).map_or((false, false), |o| (o.shape.is_flat(), o.shape.is_convex()))
+        });
         let (flat, convex) = (mask(kind.map(|k| k.0)), mask(kind.map(|k| k.1)));
         let outward = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]).cmp_gt(f32x8::ZERO);
         // Negated by the sign bit, as scalar `-` does (wide's `-c` is `0 − c`: +0 for 0).
@@ -737,6 +866,126 @@ mod tests {
             })
             .collect();
         Geometry::new(objects)
+    }
+
+    #[test]
+    fn an_objects_ball_holds_every_point_of_it_however_it_is_placed() {
+        // The farthest points of each shape (the cube's corners, the cylinder's and the cone's
+        // rims, the torus's outer circle and its tube's top, the disk's rim) under turns,
+        // uniform and uneven scales and shifts: none lies outside the ball.
+        let mut f = crate::testing::uniform(0x9E37_79B9_7F4A_7C15);
+        let shapes =
+            [Shape::Sphere, Shape::Cube, Shape::Cylinder, Shape::Cone, Shape::Torus { minor: 0.3 }, Shape::Disk];
+        let mut tight = 0;
+        for round in 0..400 {
+            let shape = shapes[(round / 2) % shapes.len()].clone();
+            let scale = if round % 2 == 0 {
+                Vec3::splat(f(0.01, 20.0))
+            } else {
+                Vec3::new(f(0.01, 20.0), f(0.01, 20.0), f(0.01, 20.0))
+            };
+            let turn = Quat::from_euler(glam::EulerRot::XYZ, f(-3.0, 3.0), f(-3.0, 3.0), f(-3.0, 3.0));
+            let at = Vec3::new(f(-1e3, 1e3), f(-1e3, 1e3), f(-1e3, 1e3));
+            let object =
+                Object::new(shape.clone(), Affine3A::from_scale_rotation_translation(scale, turn, at), 0).unwrap();
+            let (centre, radius) = object.ball().expect("a ball");
+            let far: Vec<Vec3> = (0..64)
+                .map(|k| {
+                    let (c, s) = ((k as f32 * 0.4).cos(), (k as f32 * 0.4).sin());
+                    let (y, sign) = (if k % 2 == 0 { 1.0 } else { -1.0 }, if k % 4 < 2 { 1.0 } else { -1.0 });
+                    match shape {
+                        Shape::Sphere => Vec3::new(c * s, c * c, s).normalize(),
+                        Shape::Cube => Vec3::new(sign, y, if k % 8 < 4 { 1.0 } else { -1.0 }),
+                        Shape::Cylinder | Shape::Cone => Vec3::new(c, y, s),
+                        Shape::Torus { minor } => {
+                            Vec3::new(c, 0.0, s) * (1.0 + minor * (k % 3) as f32 * 0.5)
+                                + Vec3::Y * minor * y * (k % 3 == 1) as u8 as f32
+                        }
+                        _ => Vec3::new(c, 0.0, s),
+                    }
+                })
+                .collect();
+            let mut most = 0.0f32;
+            for p in far {
+                // (Within the rounding of the placed point, a few ulps of its coordinates: the
+                // block tracer widens the ball by more, 1e-6 of the centre's.)
+                let d = (object.world_from_object.transform_point3(p) - centre).length();
+                let slack = radius * 1e-5 + centre.abs().max_element() * 3e-7;
+                assert!(d <= radius + slack, "{shape:?} {scale} {turn} {at}: {d} > {radius}");
+                most = most.max(d / radius);
+            }
+            tight += usize::from(round % 2 == 0 && shape != Shape::Disk && most > 0.99);
+        }
+        // With a uniform scale the ball is no larger than the shape needs.
+        assert!(tight > 150, "{tight}");
+        assert!(Object::new(Shape::Plane, Affine3A::IDENTITY, 0).unwrap().ball().is_none());
+    }
+
+    #[test]
+    fn eight_hits_described_at_once_have_the_bits_of_each_alone() {
+        // Spheres (near the origin and 1e4 away, tiny and large, turned) and planes (tilted,
+        // offset, one through the origin), each hit by rays from all around, eight at a time:
+        // every lane of `hit_group` is `hit`'s answer for that ray, to the bit.
+        let mut f = crate::testing::uniform(0x2545_F491_4F6C_DD1D);
+        let turn = Quat::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 0.7);
+        let objects = [
+            Object::new(Shape::Sphere, Affine3A::from_translation(Vec3::new(0.5, 1.0, -2.0)), 0),
+            Object::new(
+                Shape::Sphere,
+                Affine3A::from_scale_rotation_translation(Vec3::splat(0.01), turn, Vec3::ONE),
+                0,
+            ),
+            Object::new(
+                Shape::Sphere,
+                Affine3A::from_scale_rotation_translation(Vec3::splat(30.0), turn, Vec3::new(1e4, -2e3, 5e3)),
+                0,
+            ),
+            Object::new(Shape::Plane, Affine3A::IDENTITY, 0),
+            Object::new(Shape::Plane, Affine3A::from_rotation_translation(turn, Vec3::new(3.0, -2.0, 1.0)), 0),
+            Object::new(Shape::Plane, Affine3A::from_scale_rotation_translation(Vec3::splat(2.0), turn, Vec3::ZERO), 0),
+        ];
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let mut lanes = 0;
+        for object in objects.iter().map(|o| o.as_ref().unwrap()) {
+            let (centre, size) = match object.shape {
+                Shape::Sphere => {
+                    (Vec3::from(object.world_from_object.translation), object.world_from_object.matrix3.x_axis.length())
+                }
+                _ => (Vec3::from(object.world_from_object.translation), 5.0),
+            };
+            for _ in 0..200 {
+                let (mut o, mut d, mut t) = ([[0.0f32; 8]; 3], [[0.0f32; 8]; 3], [0.0f32; 8]);
+                let mut hit = [None; 8];
+                for k in 0..8 {
+                    let from = centre + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * size * 4.0;
+                    let aim = centre + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * size;
+                    let dir = (aim - from) * f(0.2, 3.0);
+                    for a in 0..3 {
+                        (o[a][k], d[a][k]) = (from[a], dir[a]);
+                    }
+                    if let Some(c) = object.intersect(from, dir, 0.0, f32::INFINITY) {
+                        t[k] = c.t;
+                        hit[k] = Some(object.hit(7, from, dir, &c));
+                    }
+                }
+                let group = object.hit_group(&o, &d, &t).expect("a world-space form");
+                for (k, h) in hit.iter().enumerate() {
+                    let Some(h) = h else { continue };
+                    let lane = |p: &Packet| Vec3::new(p[0][k], p[1][k], p[2][k]);
+                    assert_eq!(bits(lane(&group.point)), bits(h.point), "point, lane {k}");
+                    assert_eq!(bits(lane(&group.local)), bits(h.local), "local, lane {k}");
+                    assert_eq!(bits(lane(&group.normal)), bits(h.normal), "normal, lane {k}");
+                    assert_eq!(bits(h.shading), bits(h.normal), "shading, lane {k}");
+                    assert_eq!((h.uv, group.error[k].to_bits()), (Vec2::ZERO, h.error.to_bits()), "lane {k}");
+                    assert_eq!(group.front >> k & 1 == 1, h.front, "front, lane {k}");
+                    lanes += 1;
+                }
+            }
+        }
+        assert!(lanes > 4000, "{lanes} lanes compared");
+        // Any other object has no such form.
+        let cube = Object::new(Shape::Cube, Affine3A::IDENTITY, 0).unwrap();
+        assert!(cube.hit_group(&[[0.0; 8]; 3], &[[1.0; 8]; 3], &[1.0; 8]).is_none());
     }
 
     #[test]

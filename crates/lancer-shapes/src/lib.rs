@@ -18,7 +18,7 @@ mod torus;
 pub use aabb::Aabb;
 pub use bvh::Bvh;
 pub use csg::{Csg, CsgNode, CsgOp, Span, combine};
-pub use geometry::{Geometry, Hit, Lines, NO_SKIP, Object, Origin, Packet, invertible};
+pub use geometry::{Geometry, Hit, HitGroup, Lines, NO_SKIP, Object, Origin, Packet, invertible};
 pub use mesh::{Mesh, MeshError};
 pub use shape::{LocalSurface, Shape, ShapeHit};
 

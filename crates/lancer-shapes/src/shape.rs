@@ -196,6 +196,20 @@ impl Shape {
         }
     }
 
+    /// The radius of a ball around the object-space origin that holds the shape, where it is
+    /// smaller than its box's (a torus: its tube's outer circle; the unit cube's shapes: the
+    /// corners or rims they reach); `None` for the others.
+    pub fn ball_radius(&self) -> Option<f32> {
+        match self {
+            Shape::Sphere => Some(1.0),
+            Shape::Cube => Some(3f32.sqrt()),
+            Shape::Cylinder | Shape::Cone => Some(2f32.sqrt()),
+            &Shape::Torus { minor } => Some(1.0 + minor),
+            Shape::Disk => Some(1.0),
+            Shape::Csg(_) | Shape::Mesh(_) | Shape::Plane => None,
+        }
+    }
+
     /// The parts of the line `o + t d` inside the shape, sorted and disjoint, with outward
     /// normals at their ends (infinite ends for a plane's half-space). None for a disk.
     pub fn spans(&self, o: Vec3, d: Vec3) -> Vec<crate::Span> {

@@ -76,8 +76,11 @@ pub(crate) fn plan(objects: &[Object], boxes: &[Option<Aabb>]) -> Vec<Item> {
                     (Test::Boxed { min: b.min - pad, max: b.max + pad }, 2 + o.shape.cost_rank())
                 }
             };
+            // The smaller of the box's ball and the object's own (much the smaller for a
+            // turned torus, whose box is loose), a little larger than it.
             let bound = world.map(|b| {
-                let (centre, radius) = ((b.min + b.max) * 0.5, (b.max - b.min).length() * 0.5);
+                let boxed = ((b.min + b.max) * 0.5, (b.max - b.min).length() * 0.5);
+                let (centre, radius) = o.ball().filter(|own| own.1 < boxed.1).unwrap_or(boxed);
                 (centre, radius * (1.0 + 1e-4) + centre.abs().max_element() * 1e-6)
             });
             (rank, Item { object: i as u32, test, bound: bound.filter(|(c, r)| c.is_finite() && r.is_finite()) })
