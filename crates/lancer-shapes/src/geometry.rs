@@ -165,6 +165,28 @@ impl Object {
         }
     }
 
+    /// [`Object::intersect`] with `tmin = 0` for the first `n` (1 to 4) of four world rays at
+    /// once, with the same answers, when the object is a torus (the checks before its quartic
+    /// are made four rays at a time: [`crate::torus::first_t4`]); `None` for any other shape.
+    #[inline]
+    pub(crate) fn intersect4(
+        &self,
+        o: &[Vec3; 4],
+        d: &[Vec3; 4],
+        tmax: &[f32; 4],
+        n: usize,
+    ) -> Option<[Option<ShapeHit>; 4]> {
+        let Shape::Torus { minor } = self.shape else {
+            return None;
+        };
+        let (mut local_o, mut local_d) = ([Vec3::ZERO; 4], [Vec3::ZERO; 4]);
+        for k in 0..n {
+            (local_o[k], local_d[k]) = self.to_object(o[k], d[k]);
+        }
+        let ts = crate::torus::first_t4(minor, &local_o, &local_d, tmax, n);
+        Some(ts.map(|t| t.map(|t| ShapeHit { t, normal: Vec3::ZERO, part: 0, bary: Vec2::ZERO })))
+    }
+
     /// Whether the object lies on the world ray within `0 < t < tmax` (any hit will do).
     #[inline]
     pub fn occludes(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
