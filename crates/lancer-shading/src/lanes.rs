@@ -84,6 +84,28 @@ pub(crate) fn mirror_direction(u: &V3, shading: &V3, normal: &V3) -> V3 {
     std::array::from_fn(|a| keep.blend(r[a], about_normal[a]))
 }
 
+/// [`lancer_core::optics::vct_transmis`] lane by lane, with the same bits: the direction
+/// through a surface of normal `n_t` (turned to the side `u` goes to) with index ratio `delta`,
+/// and the lanes with one (the others reflect totally).
+#[inline(always)]
+pub(crate) fn vct_transmis(u: &V3, n_t: &V3, delta: f32x8) -> (V3, f32x8) {
+    use wide::{CmpGt, CmpLt};
+    let back = dot(n_t, u).cmp_lt(f32x8::ZERO);
+    let n_t: V3 = n_t.map(|c| back.blend(neg(c), c));
+    // `clamp(-1, 1)`, a NaN kept.
+    let ps = dot(&n_t, u);
+    let ps = ps.cmp_lt(f32x8::splat(-1.0)).blend(f32x8::splat(-1.0), ps);
+    let ps = ps.cmp_gt(f32x8::ONE).blend(f32x8::ONE, ps);
+    let k = f32x8::ONE - delta * delta * (f32x8::ONE - ps * ps);
+    let through = !k.cmp_lt(f32x8::ZERO);
+    let s = k.sqrt() - delta * ps;
+    let t: V3 = std::array::from_fn(|a| s * n_t[a] + delta * u[a]);
+    // `try_normalize`, else `u`.
+    let rcp = f32x8::ONE / dot(&t, &t).sqrt();
+    let unit = rcp.abs().cmp_lt(f32x8::splat(f32::INFINITY)) & rcp.cmp_gt(f32x8::ZERO);
+    (std::array::from_fn(|a| unit.blend(t[a] * rcp, u[a])), through)
+}
+
 /// Lane `j` of `v`.
 #[inline(always)]
 pub(crate) fn lane(v: &V3, j: usize) -> Vec3 {

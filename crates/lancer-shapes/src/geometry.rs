@@ -850,6 +850,51 @@ impl Geometry {
         Some(object.hit(at.object, from.point, dir, &c))
     }
 
+    /// [`Geometry::exit`] for eight hits at once on one sphere with a world-space form (scaled
+    /// alike on every axis): the hit points, geometric normals and error bounds, and the
+    /// directions the rays go in along. The exits of the lanes set in the mask, each with the
+    /// bits `exit` gives it alone (the start off the surface by [`Geometry::spawn_packet`], the
+    /// line into the sphere's own space, where it leaves the unit sphere, and the hit there by
+    /// [`Object::hit_group`]); the other lanes find no exit. `None` for any other object.
+    pub fn exit_group(
+        &self,
+        object: u32,
+        point: &Packet,
+        normal: &Packet,
+        error: &[f32; 8],
+        dir: &Packet,
+    ) -> Option<(HitGroup, u8)> {
+        use wide::{CmpEq, CmpGe, CmpLe, CmpLt, f32x8};
+        let o = self.objects.get(object as usize)?;
+        if !matches!((&o.shape, o.fast), (Shape::Sphere, Fast::Sphere { .. })) {
+            return None;
+        }
+        let (from, _) = self.spawn_packet(point, normal, error, &[object; 8], dir);
+        let (p, d) = (from.map(f32x8::new), dir.map(f32x8::new));
+        let (p, d) = if o.identity {
+            (p, d)
+        } else {
+            let m = &o.object_from_world;
+            (linear(&m.matrix3, &p, Some(Vec3::from(m.translation))), linear(&m.matrix3, &d, None))
+        };
+        // `sphere_roots`, then the farther root: where the line leaves the unit sphere.
+        let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let a = dot(&d, &d);
+        let b = dot(&p, &d);
+        let s = b / a;
+        let q: [f32x8; 3] = std::array::from_fn(|k| p[k] - s * d[k]);
+        let disc = a * (f32x8::ONE - dot(&q, &q));
+        let c = dot(&p, &p) - f32x8::ONE;
+        let h = (b + disc.sqrt().copysign(b)) ^ f32x8::splat(-0.0);
+        let (r0, r1) = (h / a, c / h);
+        let zero = h.cmp_eq(f32x8::ZERO);
+        let far = zero.blend(f32x8::ZERO, r0.cmp_le(r1).blend(r1, r0));
+        // (`!(disc < 0)`: a NaN goes on, as in `half_quadratic`.)
+        let found = !a.cmp_eq(f32x8::ZERO) & !disc.cmp_lt(f32x8::ZERO) & far.cmp_ge(f32x8::ZERO);
+        let hit = o.hit_group(&from, dir, &far.to_array())?;
+        Some((hit, found.move_mask() as u8))
+    }
+
     /// Where a straight ray that meets the surface at `at` is past the object: the exit of a
     /// closed object it enters there; the surface itself for one it leaves, or for a surface
     /// with no inside (a disk, an open mesh), which it crosses there. `None` only when it never
@@ -941,6 +986,93 @@ mod tests {
         // With a uniform scale the ball is no larger than the shape needs.
         assert!(tight > 150, "{tight}");
         assert!(Object::new(Shape::Plane, Affine3A::IDENTITY, 0).unwrap().ball().is_none());
+    }
+
+    #[test]
+    fn eight_exits_at_once_have_the_bits_of_each_alone() {
+        // Spheres (placed as they are, turned and scaled, far from the origin, tiny) entered by
+        // rays from all around, going on into them bent more or less, or grazing: every lane of
+        // `exit_group` that finds an exit is `exit`'s answer for that hit, and the others find
+        // none either.
+        let mut f = crate::testing::uniform(0x853C_49E6_748F_EA9B);
+        let turn = Quat::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 0.7);
+        let g = Geometry::new(vec![
+            Object::new(Shape::Sphere, Affine3A::IDENTITY, 0).unwrap(),
+            Object::new(
+                Shape::Sphere,
+                Affine3A::from_scale_rotation_translation(Vec3::splat(0.7), turn, Vec3::new(3.0, 1.0, -2.0)),
+                0,
+            )
+            .unwrap(),
+            Object::new(
+                Shape::Sphere,
+                Affine3A::from_scale_rotation_translation(Vec3::splat(40.0), turn, Vec3::new(5e3, -1e3, 2e3)),
+                0,
+            )
+            .unwrap(),
+            Object::new(
+                Shape::Sphere,
+                Affine3A::from_scale_rotation_translation(Vec3::splat(0.01), turn, Vec3::ONE),
+                0,
+            )
+            .unwrap(),
+            Object::new(Shape::Cube, Affine3A::from_translation(Vec3::new(-5.0, 0.0, 0.0)), 0).unwrap(),
+        ]);
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let (mut exits, mut none) = (0, 0);
+        for object in 0..4u32 {
+            let placed = &g.objects[object as usize];
+            let (centre, size) =
+                (Vec3::from(placed.world_from_object.translation), placed.world_from_object.matrix3.x_axis.length());
+            for _ in 0..150 {
+                let mut lanes = Vec::new();
+                while lanes.len() < 8 {
+                    let from =
+                        centre + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)).normalize_or(Vec3::X) * size * 3.0;
+                    let aim = centre + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * size * 0.9;
+                    let Some((i, c)) =
+                        g.objects[object as usize].intersect(from, aim - from, 0.0, f32::INFINITY).map(|c| (object, c))
+                    else {
+                        continue;
+                    };
+                    let hit = g.objects[i as usize].hit(i, from, aim - from, &c);
+                    // Onward into the sphere, bent towards the normal or not at all, or along
+                    // the surface.
+                    let u = (aim - from).normalize();
+                    let dir = match lanes.len() % 4 {
+                        0 => u,
+                        1 => (u - hit.normal * f(0.0, 1.0)).normalize(),
+                        2 => (u - hit.normal * u.dot(hit.normal)).normalize_or(u),
+                        _ => -hit.normal,
+                    };
+                    lanes.push((hit, dir));
+                }
+                let packet =
+                    |v: &dyn Fn(usize) -> Vec3| -> Packet { std::array::from_fn(|a| std::array::from_fn(|k| v(k)[a])) };
+                let (point, normal) = (packet(&|k| lanes[k].0.point), packet(&|k| lanes[k].0.normal));
+                let dir = packet(&|k| lanes[k].1);
+                let error = std::array::from_fn(|k| lanes[k].0.error);
+                let (group, found) = g.exit_group(object, &point, &normal, &error, &dir).expect("a sphere");
+                for (k, (hit, d)) in lanes.iter().enumerate() {
+                    let alone = g.exit(hit, *d);
+                    assert_eq!(found >> k & 1 == 1, alone.is_some(), "lane {k}: {hit:?} {d}");
+                    let Some(e) = alone else {
+                        none += 1;
+                        continue;
+                    };
+                    let lane = |p: &Packet| Vec3::new(p[0][k], p[1][k], p[2][k]);
+                    assert_eq!(bits(lane(&group.point)), bits(e.point), "lane {k}");
+                    assert_eq!(bits(lane(&group.normal)), bits(e.normal), "lane {k}");
+                    assert_eq!(bits(lane(&group.local)), bits(e.local), "lane {k}");
+                    assert_eq!((group.error[k].to_bits(), group.front >> k & 1 == 1), (e.error.to_bits(), e.front));
+                    exits += 1;
+                }
+            }
+        }
+        assert!(exits > 4000, "{exits} exits, {none} none");
+        // Anything but a sphere has no such form.
+        let zero = [[0.0; 8]; 3];
+        assert!(g.exit_group(4, &zero, &zero, &[0.0; 8], &zero).is_none());
     }
 
     #[test]

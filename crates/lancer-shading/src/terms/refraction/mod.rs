@@ -116,6 +116,41 @@ pub fn passage_notes(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Vec<
     notes
 }
 
+/// Where the rays of eight lanes that all hit one sphere with a world-space form from outside
+/// leave it, with the bits [`passage`] gives each: the lanes set in the result's mask went in
+/// and out with no total internal reflection (and there the shading normal is the geometric
+/// one, so [`bend`]'s second try changes nothing), each leaving from its origin (and ignoring
+/// its object) along its direction. The other lanes are left to [`passage`]; `None` when the
+/// object has no such form. `n` is the object's index.
+pub(crate) fn passage_group(
+    ctx: &ShadeContext<'_>,
+    hits: &lancer_core::rays::Hits,
+    u: &crate::lanes::V3,
+    group: usize,
+    object: u32,
+    n: f32,
+) -> Option<(lancer_core::rays::Packet, [u32; 8], crate::lanes::V3, u8)> {
+    use crate::lanes::{dot, load, neg, vct_transmis};
+    use wide::{CmpGt, f32x8};
+    let point = &hits.point.packets()[group];
+    let normal = load(&hits.normal.packets()[group]);
+    let base = group * lancer_core::rays::PACKET;
+    let error: [f32; 8] = std::array::from_fn(|k| hits.error.get(base + k).copied().unwrap_or(0.0));
+    // In: `VctTransmis(u, −N, 1/n)`, on the inside of the surface.
+    let (u_t, through) = vct_transmis(u, &normal.map(neg), f32x8::splat(1.0 / n));
+    let inward = !dot(&u_t, &normal).cmp_gt(f32x8::ZERO);
+    let u_t_lanes = u_t.map(|c| c.to_array());
+    let (exit, found) = ctx.geometry.exit_group(object, point, &normal.map(|c| c.to_array()), &error, &u_t_lanes)?;
+    // Out: `VctTransmis(u_t, N_j, n)`, on the outside.
+    let normal_j = load(&exit.normal);
+    let (v_t, out) = vct_transmis(&u_t, &normal_j, f32x8::splat(n));
+    let outward = dot(&v_t, &normal_j).cmp_gt(f32x8::ZERO);
+    let ok = (through & inward & out & outward).move_mask() as u8 & found;
+    let (from, skip) =
+        ctx.geometry.spawn_packet(&exit.point, &exit.normal, &exit.error, &[object; 8], &v_t.map(|c| c.to_array()));
+    Some((from, skip, v_t, ok))
+}
+
 /// `VctTransmis` through the surface of `at` with the index ratio `delta`, about the shading
 /// normal when that sends the ray to the right side of the geometric surface (out when
 /// `leaving`, in otherwise), else about the geometric normal: the direction and the normal used.

@@ -18,7 +18,11 @@
 
 use glam::Vec3;
 
-use super::{passage, passage_notes};
+use lancer_core::rays::PACKET;
+use lancer_shapes::Origin;
+
+use super::{passage, passage_group, passage_notes};
+use crate::lanes::{self, Group};
 use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec};
 
 /// The spec registered as `refraction`, variant `seed`.
@@ -51,14 +55,38 @@ impl Term for Refraction {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
-        for lane in chunk.hit_lanes() {
-            let m = ctx.material(chunk.hits, lane);
-            if m.alpha <= 0.0 || !out.can_spawn(lane) {
+        for group in Group::all(chunk.hits) {
+            // The lanes with `alpha > 0` (a NaN goes on, as lane by lane) within the depth limit.
+            let (alpha, clear) = group.param(ctx, chunk.hits, |m| m.alpha, |a| a > 0.0 || a.is_nan());
+            let clear = clear & group.may_spawn(chunk.rays, out.max_depth);
+            if clear == 0 {
                 continue;
             }
-            let hit = ctx.hit(chunk.hits, lane);
-            if let Some(t) = passage(ctx, &hit, chunk.rays.dir.at(lane), m.n) {
-                out.spawn(lane, t.from, t.dir, Vec3::splat(m.alpha));
+            // Eight lanes at a time where they all went into one sphere from outside; the rest
+            // (and any total internal reflection) lane by lane, in lane order either way.
+            let object = chunk.hits.object[group.base + clear.trailing_zeros() as usize];
+            let fronts = lanes::bits(group.len, |j| chunk.hits.front[group.base + j]);
+            let one = group.lanes(clear).all(|(_, lane)| chunk.hits.object[lane] == object);
+            let together = (one && clear & fronts == clear)
+                .then(|| {
+                    let n = ctx.material_of(object).n;
+                    passage_group(ctx, chunk.hits, &group.dir(chunk.rays), group.base / PACKET, object, n)
+                })
+                .flatten();
+            for (j, lane) in group.lanes(clear) {
+                match together {
+                    Some((from, skip, dir, ok)) if ok >> j & 1 == 1 => {
+                        let from = Origin { point: lancer_core::rays::lane(&from, j), skip: skip[j] };
+                        out.spawn(lane, from, lanes::lane(&dir, j), Vec3::splat(alpha[j]));
+                    }
+                    _ => {
+                        let m = ctx.material(chunk.hits, lane);
+                        let hit = ctx.hit(chunk.hits, lane);
+                        if let Some(t) = passage(ctx, &hit, chunk.rays.dir.at(lane), m.n) {
+                            out.spawn(lane, t.from, t.dir, Vec3::splat(m.alpha));
+                        }
+                    }
+                }
             }
         }
     }
@@ -85,6 +113,71 @@ mod tests {
         let h = g.closest_hit(Origin::free(p - 0.1 * u), u, 0.0, f32::INFINITY).unwrap();
         assert!((h.point - p).length() < 1e-5, "{} vs {p}", h.point);
         h
+    }
+
+    #[test]
+    fn eight_passages_at_once_have_the_bits_of_each_alone() {
+        // Spheres (placed as they are, turned and scaled, far from the origin) of several
+        // indices (below 1 too, where going in may reflect totally), entered from all around:
+        // every lane `passage_group` takes leaves where `passage` says, to the bit.
+        let mut f = {
+            let mut state = 0x9E37_79B9_7F4A_7C15u64;
+            move |lo: f32, hi: f32| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
+            }
+        };
+        let turn = glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 0.7);
+        let placements = [
+            Affine3A::IDENTITY,
+            Affine3A::from_scale_rotation_translation(Vec3::splat(0.7), turn, Vec3::new(3.0, 1.0, -2.0)),
+            Affine3A::from_scale_rotation_translation(Vec3::splat(40.0), turn, Vec3::new(5e3, -1e3, 2e3)),
+        ];
+        let (mut taken, mut lanes) = (0, 0);
+        for (p, placement) in placements.iter().enumerate() {
+            let g = glass(Shape::Sphere, *placement);
+            let (centre, size) = (Vec3::from(placement.translation), placement.matrix3.x_axis.length());
+            for round in 0..120 {
+                let n = [1.5, 1.33, 2.4, 1.0001, 0.8][(round + p) % 5];
+                let mut list = Vec::new();
+                let mut dirs = Vec::new();
+                while list.len() < 8 {
+                    let from =
+                        centre + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)).normalize_or(Vec3::X) * size * 3.0;
+                    let aim = centre + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * size * 0.99;
+                    let u = (aim - from).normalize();
+                    if let Some(h) = g.closest_hit(Origin::free(from), u, 0.0, f32::INFINITY) {
+                        list.push(h);
+                        dirs.push(u);
+                    }
+                }
+                let hits = crate::shadow::columns_of(&list);
+                let u: crate::lanes::V3 =
+                    std::array::from_fn(|a| wide::f32x8::new(std::array::from_fn(|k| dirs[k][a])));
+                let (from, skip, dir, ok) =
+                    crate::terms::refraction::passage_group(&ctx(&g), &hits, &u, 0, 0, n).expect("a sphere");
+                for k in 0..8 {
+                    lanes += 1;
+                    if ok >> k & 1 == 0 {
+                        continue;
+                    }
+                    taken += 1;
+                    let want = passage(&ctx(&g), &list[k], dirs[k], n).expect("a way out");
+                    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                    assert_eq!(bits(lancer_core::rays::lane(&from, k)), bits(want.from.point), "lane {k}, n {n}");
+                    assert_eq!(skip[k], want.from.skip);
+                    assert_eq!(bits(crate::lanes::lane(&dir, k)), bits(want.dir), "lane {k}, n {n}");
+                }
+            }
+        }
+        assert!(taken > lanes * 3 / 4 && taken < lanes, "{taken} of {lanes} lanes taken together");
+        // Any other shape is left to `passage`.
+        let cube = glass(Shape::Cube, Affine3A::IDENTITY);
+        let hits = crate::shadow::columns_of(&[arriving(&cube, Vec3::new(0.0, 0.0, -1.0), Vec3::Z)]);
+        let u = [wide::f32x8::ZERO, wide::f32x8::ZERO, wide::f32x8::ONE];
+        assert!(crate::terms::refraction::passage_group(&ctx(&cube), &hits, &u, 0, 0, 1.5).is_none());
     }
 
     #[test]
