@@ -118,6 +118,20 @@ pub(crate) fn lane(v: &V3, j: usize) -> Vec3 {
 #[inline(always)]
 pub(crate) fn powi(c: f32x8, e: [u32; PACKET]) -> f32x8 {
     let (mut base, mut product) = (c, f32x8::ONE);
+    if e.iter().all(|&x| x == e[0]) {
+        // One exponent for every lane (the usual case: one material): the same steps, with no
+        // mask to make for each bit.
+        let mut e = e[0];
+        debug_assert!(e < 1 << 17, "exponent {e}");
+        while e != 0 {
+            if e & 1 == 1 {
+                product *= base;
+            }
+            base = base * base;
+            e >>= 1;
+        }
+        return product;
+    }
     let top = e.iter().copied().max().unwrap_or(0);
     debug_assert!(top < 1 << 17, "exponent {top}");
     let mut bit = 0;
@@ -273,8 +287,10 @@ mod tests {
         let mut seen = 0;
         for round in 0..4000 {
             f = (f * 3.7 + 0.11).fract();
+            // Every third round one exponent for all lanes (powi's other path).
+            let spread = if round % 3 == 0 { 0 } else { 5 };
             let e: [u32; 8] =
-                std::array::from_fn(|j| [1, 2, 5, 20, 40, 80, 100, 1024, 3, 7, 64, 65535][(round + j * 5) % 12]);
+                std::array::from_fn(|j| [1, 2, 5, 20, 40, 80, 100, 1024, 3, 7, 64, 65535][(round + j * spread) % 12]);
             let c = f32x8::new(std::array::from_fn(|j| {
                 let u = (f + j as f32 * 0.119).fract();
                 if e[j] >= 64 { 1.0 + (u - 0.5) * 8.0 / e[j] as f32 } else { u * 1.3 }

@@ -96,6 +96,14 @@ impl Term for Phong {
                 }
             }
             if active != 0 {
+                // The lanes left out take an active lane's exponent: one exponent for all, the
+                // usual case, skips `powi`'s masks (their answers are not used).
+                let first = power[active.trailing_zeros() as usize];
+                for (j, p) in power.iter_mut().enumerate() {
+                    if active >> j & 1 == 0 {
+                        *p = first;
+                    }
+                }
                 let n = group.facing(chunk.hits);
                 let u = group.dir(chunk.rays);
                 let shine = f32x8::new(shine);
