@@ -477,15 +477,14 @@ fn camera_system(
             }
         }
         let dirs = camera.directions(px, py, image.width, image.height);
+        let splat = |v: Vec3| v.to_array().map(|c| [c; PACKET]);
         out.dir.push_packet(&dirs, lanes);
-        for &pixel in &pixels[..lanes] {
-            out.origin.push(camera.origin);
-            out.skip.push(NO_SKIP);
-            out.weight.push(weight);
-            out.pixel.push(pixel);
-            out.depth.push(0);
-            out.credit.push(CREDIT_OWN);
-        }
+        out.origin.push_packet(&splat(camera.origin), lanes);
+        out.weight.push_packet(&splat(weight), lanes);
+        out.skip.extend_from_slice(&[NO_SKIP; PACKET][..lanes]);
+        out.pixel.extend_from_slice(&pixels[..lanes]);
+        out.depth.extend_from_slice(&[0; PACKET][..lanes]);
+        out.credit.extend_from_slice(&[CREDIT_OWN; PACKET][..lanes]);
     }
 }
 
