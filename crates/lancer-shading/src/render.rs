@@ -489,15 +489,15 @@ fn camera_system(
 }
 
 /// Closest hit of every ray, with everything terms need about the surface there. Hits on
-/// objects with a world-space form (spheres and planes) wait for the rest of their group of
-/// eight lanes: where they are all on one object, they are described eight at a time
-/// ([`lancer_shapes::Object::hit_group`], the bits of one at a time).
+/// spheres, planes and tori wait for the rest of their group of eight lanes: where they are all
+/// on one object, they are described eight at a time ([`lancer_shapes::Object::hit_group`], the
+/// bits of one at a time).
 fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
     let objects = &ctx.geometry.objects;
     for (rays, hits) in world.query_mut::<(&Rays, &mut Hits)>() {
         let mut waiting = [0u8; CHUNK_LANES / PACKET];
         let found = |lane: usize, i: u32, c: &lancer_shapes::ShapeHit| {
-            if objects[i as usize].has_world_form() {
+            if objects[i as usize].hits_in_groups() {
                 (hits.t[lane], hits.object[lane]) = (c.t, i);
                 waiting[lane / PACKET] |= 1 << (lane % PACKET);
             } else {

@@ -250,19 +250,19 @@ impl Object {
         }
     }
 
-    /// Whether the object has a world-space form (a sphere scaled alike on every axis, a
-    /// plane): its hits are described from their distance alone, and eight at a time by
-    /// [`Object::hit_group`].
+    /// Whether [`Object::hit_group`] describes the object's hits eight at a time (from their
+    /// distances alone): a sphere scaled alike on every axis, a plane, a torus.
     #[inline]
-    pub fn has_world_form(&self) -> bool {
-        !matches!(self.fast, Fast::None)
+    pub fn hits_in_groups(&self) -> bool {
+        !matches!(self.fast, Fast::None) || matches!(self.shape, Shape::Torus { .. })
     }
 
     /// [`Object::hit`] for eight rays at once (`o`, `d` as packets, their crossings at `t`)
-    /// when the object has a world-space form (a sphere scaled alike on every axis, a plane):
-    /// the same operations in the same order, eight lanes (four in f64) at a time, so each lane
-    /// gets the bits `hit` gives it alone. `None` for any other object. Lanes the caller has no
-    /// crossing for come out as garbage, to be left out.
+    /// when the object has a world-space form (a sphere scaled alike on every axis, a plane) or
+    /// is a torus: the same operations in the same order, eight lanes (four in f64) at a time,
+    /// so each lane gets the bits `hit` gives it alone. `None` for any other object (and for a
+    /// torus hit on its axis). Lanes the caller has no crossing for come out as garbage, to be
+    /// left out.
     pub fn hit_group(&self, o: &Packet, d: &Packet, t: &[f32; 8]) -> Option<HitGroup> {
         use wide::{CmpGt, CmpLt, f32x8, f64x4};
         // `o.as_dvec3() + t as f64 * d.as_dvec3()`, four lanes at a time.
@@ -280,7 +280,7 @@ impl Object {
         };
         let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
         let (point, local, normal) = match self.fast {
-            Fast::None => return None,
+            Fast::None => return self.hit_group_placed(o, d, t),
             Fast::Sphere { centre, radius, .. } => {
                 let c = centre.as_dvec3().to_array().map(f64x4::splat);
                 // `u = (p - centre).normalize_or(DVec3::Y)`.
@@ -330,6 +330,94 @@ impl Object {
             local: local.map(|c| c.to_array()),
             normal: normal.map(|c| c.to_array()),
             error,
+            front,
+        })
+    }
+
+    /// [`Object::hit_group`] for a torus (any placement): [`Object::hit`]'s general path
+    /// (the line into the torus's own space, [`Shape::surface`]'s nearest point of the tube and
+    /// its normal, the normal into world space, [`place`]) with the same operations in the same
+    /// order. `None` for any other shape, or when a lane meets the torus's axis (`rho` zero,
+    /// where `surface` takes another path).
+    fn hit_group_placed(&self, o: &Packet, d: &Packet, t: &[f32; 8]) -> Option<HitGroup> {
+        use wide::{CmpEq, CmpGt, CmpLt, f32x8, f64x4};
+        let Shape::Torus { minor } = self.shape else {
+            return None;
+        };
+        let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        // `normalize_or(fallback)` lane by lane, in f32.
+        let unit_or = |v: [f32x8; 3], fallback: Vec3| -> [f32x8; 3] {
+            let rcp = f32x8::ONE / dot(&v, &v).sqrt();
+            let ok = rcp.abs().cmp_lt(f32x8::splat(f32::INFINITY)) & rcp.cmp_gt(f32x8::ZERO);
+            std::array::from_fn(|a| ok.blend(v[a] * rcp, f32x8::splat(fallback[a])))
+        };
+        let (wo, wd) = (o.map(f32x8::new), d.map(f32x8::new));
+        let (oo, od) = if self.identity {
+            (wo, wd)
+        } else {
+            let m = &self.object_from_world;
+            (linear(&m.matrix3, &wo, Some(Vec3::from(m.translation))), linear(&m.matrix3, &wd, None))
+        };
+        let (oo, od) = (oo.map(f32x8::to_array), od.map(f32x8::to_array));
+        let in_f64 = |v: &[f32; 8], half: usize| f64x4::new(std::array::from_fn(|k| v[4 * half + k] as f64));
+        // The nearest point of the tube, in f64: `p` on the line, `c` on the centre circle.
+        let mut axis = false;
+        let q = [0, 1].map(|half| -> [f64x4; 3] {
+            let t = in_f64(t, half);
+            let p: [f64x4; 3] = std::array::from_fn(|a| in_f64(&oo[a], half) + t * in_f64(&od[a], half));
+            let rho = (p[0] * p[0] + p[2] * p[2]).sqrt();
+            axis |= rho.cmp_eq(f64x4::ZERO).move_mask() != 0;
+            let c = [p[0] / rho, f64x4::ZERO, p[2] / rho];
+            let v: [f64x4; 3] = std::array::from_fn(|a| p[a] - c[a]);
+            let rcp = f64x4::ONE / (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            let ok = rcp.abs().cmp_lt(f64x4::splat(f64::INFINITY)) & rcp.cmp_gt(f64x4::ZERO);
+            let fallback = [f64x4::ZERO, f64x4::ONE, f64x4::ZERO];
+            let r = f64x4::splat(minor as f64);
+            std::array::from_fn(|a| c[a] + ok.blend(v[a] * rcp, fallback[a]) * r)
+        });
+        if axis {
+            return None;
+        }
+        let local: [f32x8; 3] = std::array::from_fn(|a| {
+            let (lo, hi) = (q[0][a].to_array(), q[1][a].to_array());
+            f32x8::new(std::array::from_fn(|k| if k < 4 { lo[k] as f32 } else { hi[k - 4] as f32 }))
+        });
+        let gt_max = crate::stream::gt_max;
+        let local_error = f32x8::splat(f32::EPSILON) * gt_max(local[0].abs(), gt_max(local[1].abs(), local[2].abs()));
+        // `torus::normal` of the point: away from the centre circle.
+        let rho = (local[0] * local[0] + local[2] * local[2]).sqrt();
+        if rho.cmp_eq(f32x8::ZERO).move_mask() != 0 {
+            return None;
+        }
+        let centre = [local[0] / rho, f32x8::ZERO, local[2] / rho];
+        let n = unit_or(std::array::from_fn(|a| local[a] - centre[a]), Vec3::Y);
+        // `world_normal`, then `place` (or `place_unmoved`).
+        let normal = if self.identity {
+            unit_or(n, Vec3::Y)
+        } else {
+            unit_or(linear(&self.world_from_object_normal, &n, None), Vec3::Y)
+        };
+        let n_abs = normal.map(f32x8::abs);
+        let (point, error) = if self.identity {
+            let rounding = local.map(|c| f32x8::splat(GAMMA3) * c.abs());
+            let error = std::array::from_fn(|a| rounding[a] + local_error);
+            (local, dot(&n_abs, &error))
+        } else {
+            let m = &self.world_from_object;
+            let abs = Mat3A::from_cols(m.matrix3.x_axis.abs(), m.matrix3.y_axis.abs(), m.matrix3.z_axis.abs());
+            let world = linear(&m.matrix3, &local, Some(Vec3::from(m.translation)));
+            let spread = linear(&abs, &local.map(f32x8::abs), Some(Vec3::from(m.translation.abs())));
+            let rounding = spread.map(|c| f32x8::splat(GAMMA3) * c);
+            let carried = linear(&abs, &[local_error; 3], None);
+            let error = std::array::from_fn(|a| rounding[a] + carried[a]);
+            (world, dot(&n_abs, &error))
+        };
+        let front = dot(&normal, &wd).cmp_lt(f32x8::ZERO).move_mask() as u8;
+        Some(HitGroup {
+            point: point.map(|c| c.to_array()),
+            local: local.map(|c| c.to_array()),
+            normal: normal.map(|c| c.to_array()),
+            error: error.to_array(),
             front,
         })
     }
@@ -1097,15 +1185,32 @@ mod tests {
             Object::new(Shape::Plane, Affine3A::IDENTITY, 0),
             Object::new(Shape::Plane, Affine3A::from_rotation_translation(turn, Vec3::new(3.0, -2.0, 1.0)), 0),
             Object::new(Shape::Plane, Affine3A::from_scale_rotation_translation(Vec3::splat(2.0), turn, Vec3::ZERO), 0),
+            // Tori: as they are, turned and scaled, scaled unevenly, far away.
+            Object::new(Shape::Torus { minor: 0.3 }, Affine3A::IDENTITY, 0),
+            Object::new(
+                Shape::Torus { minor: 0.25 },
+                Affine3A::from_scale_rotation_translation(Vec3::splat(0.9), turn, Vec3::X),
+                0,
+            ),
+            Object::new(
+                Shape::Torus { minor: 0.4 },
+                Affine3A::from_scale_rotation_translation(Vec3::new(2.0, 0.5, 1.0), turn, Vec3::new(-3.0, 1.0, 2.0)),
+                0,
+            ),
+            Object::new(
+                Shape::Torus { minor: 0.1 },
+                Affine3A::from_scale_rotation_translation(Vec3::splat(50.0), turn, Vec3::splat(3e3)),
+                0,
+            ),
         ];
         let bits = |v: Vec3| v.to_array().map(f32::to_bits);
         let mut lanes = 0;
         for object in objects.iter().map(|o| o.as_ref().unwrap()) {
-            let (centre, size) = match object.shape {
-                Shape::Sphere => {
-                    (Vec3::from(object.world_from_object.translation), object.world_from_object.matrix3.x_axis.length())
-                }
-                _ => (Vec3::from(object.world_from_object.translation), 5.0),
+            let centre = Vec3::from(object.world_from_object.translation);
+            let size = match object.shape {
+                Shape::Sphere => object.world_from_object.matrix3.x_axis.length(),
+                Shape::Torus { .. } => object.world_from_object.matrix3.x_axis.length().max(1.0) * 1.3,
+                _ => 5.0,
             };
             for _ in 0..200 {
                 let (mut o, mut d, mut t) = ([[0.0f32; 8]; 3], [[0.0f32; 8]; 3], [0.0f32; 8]);
@@ -1136,7 +1241,7 @@ mod tests {
                 }
             }
         }
-        assert!(lanes > 4000, "{lanes} lanes compared");
+        assert!(lanes > 6000, "{lanes} lanes compared");
         // Any other object has no such form.
         let cube = Object::new(Shape::Cube, Affine3A::IDENTITY, 0).unwrap();
         assert!(cube.hit_group(&[[0.0; 8]; 3], &[[1.0; 8]; 3], &[1.0; 8]).is_none());
