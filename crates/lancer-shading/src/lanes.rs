@@ -182,10 +182,16 @@ impl Group {
         param: impl Fn(&lancer_core::Material) -> f32,
         acts: impl Fn(f32) -> bool,
     ) -> ([f32; PACKET], u8) {
+        let indices = &hits.material[self.base..self.base + self.len];
+        if let Some(material) = self.one_material(indices) {
+            // One material for every hit lane (the usual case): read once.
+            let v = ctx.materials.get(material as usize).map_or(0.0, &param);
+            let value = std::array::from_fn(|j| if (self.hit >> j) & 1 != 0 { v } else { 0.0 });
+            return (value, if acts(v) { self.hit } else { 0 });
+        }
         // Every lane, with no branch on hit or miss (a lane with no hit reads material 0, and
         // keeps 0).
         let (mut value, mut above) = ([0.0f32; PACKET], 0u8);
-        let indices = &hits.material[self.base..self.base + self.len];
         for j in 0..self.len {
             let hit = (self.hit >> j) & 1 != 0;
             let material = if hit { indices[j] } else { 0 };
@@ -194,6 +200,18 @@ impl Group {
             above |= u8::from(hit & acts(v)) << j;
         }
         (value, above)
+    }
+
+    /// The material of every hit lane, when they have one (`indices`: the group's lanes' material
+    /// column), and at least one lane hit.
+    #[inline(always)]
+    pub(crate) fn one_material(&self, indices: &[u32]) -> Option<u32> {
+        if self.hit == 0 {
+            return None;
+        }
+        let first = indices[self.hit.trailing_zeros() as usize];
+        let differ = bits(self.len, |j| indices[j] != first) & self.hit;
+        (differ == 0).then_some(first)
     }
 
     /// The hit points, geometric normals, error bounds and objects of the lanes (a lane past
@@ -277,6 +295,17 @@ impl Group {
 #[cfg(test)]
 mod tests {
     use wide::f32x8;
+
+    #[test]
+    fn a_group_has_one_material_only_when_every_hit_lane_has_it() {
+        let group = |hit: u8, len: usize| super::Group { base: 0, len, hit };
+        // Lanes with no hit do not count, whatever their stale material.
+        assert_eq!(group(0b1011_0101, 8).one_material(&[3, 9, 3, 9, 3, 3, 9, 3]), Some(3));
+        assert_eq!(group(0b1011_0111, 8).one_material(&[3, 9, 3, 9, 3, 3, 9, 3]), None);
+        assert_eq!(group(0b0000_0100, 3).one_material(&[1, 2, 7]), Some(7));
+        // No hit: no material.
+        assert_eq!(group(0, 8).one_material(&[0; 8]), None);
+    }
 
     #[test]
     fn powers_have_the_bits_of_powi() {

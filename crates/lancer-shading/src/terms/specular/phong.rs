@@ -72,23 +72,40 @@ impl Term for Phong {
         // The last material's answer: neighbouring hits mostly share a material, and its
         // exponent costs a division and a rounding.
         let mut last: Option<(u32, Option<Option<u32>>)> = None;
+        // The exponent of material `index` (`None` where the term skips it, `Some(None)` where
+        // it is not whole).
+        let mut exponent_of = |index: u32, m: &lancer_core::Material| match last {
+            Some((i, e)) if i == index => e,
+            _ => {
+                // The scalar test, NaN included: a NaN `spec` or `shine` is not skipped.
+                let skipped = m.spec <= 0.0 || m.shine <= 0.0 || m.shine >= 1.0;
+                let e = (!skipped).then(|| super::whole_power(1.0 / (1.0 - m.shine)));
+                last = Some((index, e));
+                e
+            }
+        };
         for group in Group::all(chunk.hits) {
             let (mut spec, mut shine, mut power) = ([0.0f32; PACKET], [0.0f32; PACKET], [0u32; PACKET]);
             let (mut active, mut alone) = (0u8, 0u8);
-            for (j, lane) in group.lanes(group.hit) {
-                let index = chunk.hits.material[lane];
-                let m = ctx.material(chunk.hits, lane);
-                let exponent = match last {
-                    Some((i, e)) if i == index => e,
-                    _ => {
-                        // The scalar test, NaN included: a NaN `spec` or `shine` is not skipped.
-                        let skipped = m.spec <= 0.0 || m.shine <= 0.0 || m.shine >= 1.0;
-                        let e = (!skipped).then(|| super::whole_power(1.0 / (1.0 - m.shine)));
-                        last = Some((index, e));
-                        e
+            // One material for every hit lane (the usual case) is looked at once; else each.
+            let indices = &chunk.hits.material[group.base..group.base + group.len];
+            let (one, each) = match group.one_material(indices) {
+                Some(index) => (Some(index), 0),
+                None => (None, group.hit),
+            };
+            if let Some(index) = one {
+                let m = &ctx.materials[index as usize];
+                match exponent_of(index, m) {
+                    Some(Some(e)) => {
+                        (spec, shine, power, active) = ([m.spec; PACKET], [m.shine; PACKET], [e; PACKET], group.hit);
                     }
-                };
-                let Some(exponent) = exponent else { continue };
+                    Some(None) => alone = group.hit,
+                    None => {}
+                }
+            }
+            for (j, lane) in group.lanes(each) {
+                let m = ctx.material(chunk.hits, lane);
+                let Some(exponent) = exponent_of(chunk.hits.material[lane], m) else { continue };
                 (spec[j], shine[j]) = (m.spec, m.shine);
                 match exponent {
                     Some(e) => (power[j], active) = (e, active | 1 << j),
