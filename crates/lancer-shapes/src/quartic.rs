@@ -129,20 +129,71 @@ pub fn quartic_roots(a: f64, b: f64, c: f64, d: f64) -> Roots {
 /// rough root far from where it started: such a stray root is not taken here, so the answer
 /// is then nearer a true root than `quartic_roots`' least.
 pub fn least_root(a: f64, b: f64, c: f64, d: f64, accept: impl Fn(f64) -> bool) -> Option<f64> {
+    let rough = sorted_rough_roots(a, b, c, d);
+    let first = rough.first().map(|&y| polish(y - a / 4.0, a, b, c, d));
+    least_root_from(&rough, first, a, b, c, d, accept)
+}
+
+/// The rough roots [`least_root`] starts from, ascending.
+#[inline]
+pub(crate) fn sorted_rough_roots(a: f64, b: f64, c: f64, d: f64) -> Roots {
     let mut rough = rough_roots(a, b, c, d);
     rough.sort_by(f64::total_cmp);
+    rough
+}
+
+/// [`least_root`] from its rough roots (`rough`, ascending) and the first of them already
+/// polished (`first`, `None` when there is none).
+#[inline]
+pub(crate) fn least_root_from(
+    rough: &[f64],
+    first: Option<f64>,
+    a: f64,
+    b: f64,
+    c: f64,
+    d: f64,
+    accept: impl Fn(f64) -> bool,
+) -> Option<f64> {
     let mut best: Option<f64> = None;
-    for &y in rough.iter() {
+    for (k, &y) in rough.iter().enumerate() {
         let start = y - a / 4.0;
         if best.is_some_and(|b| start > b + 1e-6 * b.abs().max(1.0)) {
             break;
         }
-        let x = polish(start, a, b, c, d);
+        let x = match (k, first) {
+            (0, Some(x)) => x,
+            _ => polish(start, a, b, c, d),
+        };
         if x.is_finite() && accept(x) && best.is_none_or(|b| x < b) {
             best = Some(x);
         }
     }
     best
+}
+
+/// [`polish`] of four starts at once, each with its own quartic (the coefficients four lanes
+/// at a time): the same steps lane by lane, each lane stopping where it stops alone, so the
+/// same bits.
+#[inline]
+pub(crate) fn polish4(x: wide::f64x4, a: wide::f64x4, b: wide::f64x4, c: wide::f64x4, d: wide::f64x4) -> wide::f64x4 {
+    use wide::{CmpEq, CmpLe, f64x4};
+    let s = f64x4::splat;
+    let (mut x, mut going) = (x, f64x4::from(f64::from_bits(u64::MAX)));
+    for _ in 0..4 {
+        let f = (((x + a) * x + b) * x + c) * x + d;
+        let df = ((s(4.0) * x + s(3.0) * a) * x + s(2.0) * b) * x + c;
+        let flat = df.cmp_eq(f64x4::ZERO);
+        let step = f / df;
+        let moved = x - step;
+        let on = going & !flat;
+        x = on.blend(moved, x);
+        let close = step.abs().cmp_le(s(1e-14) * x.abs().max(s(1.0)));
+        going = on & !close;
+        if going.move_mask() == 0 {
+            break;
+        }
+    }
+    x
 }
 
 /// The roots of the depressed quartic (`x = y − a/4`) of `x⁴ + a x³ + b x² + c x + d`, before
@@ -207,6 +258,41 @@ mod tests {
         let c = -(r1 * r2 * r3 + r1 * r2 * r4 + r1 * r3 * r4 + r2 * r3 * r4);
         let d = r1 * r2 * r3 * r4;
         (a, b, c, d)
+    }
+
+    #[test]
+    fn four_polishes_at_once_have_the_bits_of_each_alone() {
+        // Starts near roots, far from them, at a flat point of the quartic (a zero slope stops
+        // the steps at once), on a double root and at NaN; four quartics side by side.
+        let mut f = crate::testing::uniform(0x5851_F42D_4C95_7F2D);
+        let mut moved = 0;
+        for round in 0..20_000 {
+            let quartic = |_| -> [f64; 4] {
+                let r: [f64; 4] = std::array::from_fn(|_| f(-3.0, 3.0) as f64);
+                // (x - r0)(x - r1)(x - r2)(x - r3), or x⁴ + 1 (no real root, flat at 0).
+                if round % 11 == 0 {
+                    return [0.0, 0.0, 0.0, 1.0];
+                }
+                let (s1, s2) = (r[0] + r[1], r[0] * r[1]);
+                let (t1, t2) = (r[2] + r[3], r[2] * r[3]);
+                [-(s1 + t1), s2 + t2 + s1 * t1, -(s1 * t2 + s2 * t1), s2 * t2]
+            };
+            let qs: [[f64; 4]; 4] = std::array::from_fn(quartic);
+            let starts: [f64; 4] = std::array::from_fn(|k| match (round + k) % 7 {
+                0 => 0.0,
+                1 if round % 13 == 0 => f64::NAN,
+                _ => f(-4.0, 4.0) as f64,
+            });
+            let lane = |i: usize| wide::f64x4::new(std::array::from_fn(|k| qs[k][i]));
+            let got = polish4(wide::f64x4::new(starts), lane(0), lane(1), lane(2), lane(3)).to_array();
+            for k in 0..4 {
+                let [a, b, c, d] = qs[k];
+                let want = polish(starts[k], a, b, c, d);
+                assert_eq!(got[k].to_bits(), want.to_bits(), "{:?} from {}", qs[k], starts[k]);
+                moved += usize::from(want != starts[k]);
+            }
+        }
+        assert!(moved > 60_000, "{moved}");
     }
 
     #[test]

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use crate::quartic::{Roots, least_root, quartic_roots};
+use crate::quartic::{Roots, least_root, least_root_from, polish4, quartic_roots, sorted_rough_roots};
 
 /// The outward unit normal of the torus at a point on it.
 pub fn normal(p: Vec3) -> Vec3 {
@@ -258,11 +258,29 @@ pub fn first_t4(minor: f32, o: &[Vec3; 4], d: &[Vec3; 4], tmax: &[f32; 4], n: us
     if live == 0 {
         return out;
     }
-    let c = coefficients4(&p, &u, r).map(f64x4::to_array);
+    let c4 = coefficients4(&p, &u, r);
+    let c = c4.map(f64x4::to_array);
     let (shift, len) = (shift.to_array(), len.to_array());
+    // The rough roots lane by lane; the least of each polished four lanes at a time, the rest
+    // (where the least is not taken) lane by lane.
+    let mut rough = [Roots::default(); 4];
+    let mut starts = [0.0f64; 4];
+    for k in (0..n).filter(|k| live >> k & 1 == 1) {
+        rough[k] = sorted_rough_roots(c[0][k], c[1][k], c[2][k], c[3][k]);
+        if let Some(&y) = rough[k].first() {
+            starts[k] = y - c[0][k] / 4.0;
+        }
+    }
+    let first = polish4(f64x4::new(starts), c4[0], c4[1], c4[2], c4[3]).to_array();
     for k in (0..n).filter(|k| live >> k & 1 == 1) {
         let q = Quartic { coefficients: [c[0][k], c[1][k], c[2][k], c[3][k]], shift: shift[k], len: len[k] };
-        out[k] = q.least_t(0.0, tmax[k]);
+        let within = |s: f64| {
+            let t = q.t(s);
+            t > 0.0 && t < tmax[k]
+        };
+        let [a3, a2, a1, a0] = q.coefficients;
+        let polished = (!rough[k].is_empty()).then_some(first[k]);
+        out[k] = least_root_from(&rough[k], polished, a3, a2, a1, a0, within).map(|s| q.t(s));
     }
     out
 }
