@@ -297,6 +297,40 @@ mod tests {
     use wide::f32x8;
 
     #[test]
+    fn a_parameter_read_once_for_one_material_is_what_each_lane_reads() {
+        // Groups of one material and of several, with misses among them, and a parameter the
+        // term skips on one material: `param` gives each hit lane its material's value and
+        // test, and every other lane 0 and no bit.
+        let materials: Vec<lancer_core::Material> =
+            [0.3, 0.0, 0.7].iter().map(|&spec| lancer_core::Material { spec, ..Default::default() }).collect();
+        let geometry = lancer_shapes::Geometry::new(Vec::new());
+        let ctx = crate::ShadeContext {
+            geometry: &geometry,
+            materials: &materials,
+            lights: &[],
+            max_depth: 5,
+            textures: &[],
+        };
+        let mut hits = lancer_core::rays::Hits::default();
+        hits.reset(16);
+        let index = [0, 0, 0, 0, 0, 0, 0, 0, 2, 1, 2, 2, 0, 2, 1, 2];
+        for (lane, &i) in index.iter().enumerate() {
+            hits.material[lane] = i;
+            hits.object[lane] = if lane % 5 == 3 { lancer_core::rays::NO_HIT } else { 0 };
+        }
+        for group in super::Group::all(&hits) {
+            let (value, on) = group.param(&ctx, &hits, |m| m.spec, |s| s > 0.0);
+            for (j, got) in value.iter().enumerate().take(group.len) {
+                let lane = group.base + j;
+                let hit = hits.object[lane] != lancer_core::rays::NO_HIT;
+                let want = if hit { materials[index[lane] as usize].spec } else { 0.0 };
+                assert_eq!(got.to_bits(), want.to_bits(), "lane {lane}");
+                assert_eq!(on >> j & 1 == 1, hit && want > 0.0, "lane {lane}");
+            }
+        }
+    }
+
+    #[test]
     fn a_group_has_one_material_only_when_every_hit_lane_has_it() {
         let group = |hit: u8, len: usize| super::Group { base: 0, len, hit };
         // Lanes with no hit do not count, whatever their stale material.

@@ -489,7 +489,7 @@ fn camera_system(
 }
 
 /// Closest hit of every ray, with everything terms need about the surface there. Hits on
-/// spheres, planes and tori wait for the rest of their group of eight lanes: where they are all
+/// evenly scaled spheres, planes and tori wait for the rest of their group of eight lanes: where they are all
 /// on one object, they are described eight at a time ([`lancer_shapes::Object::hit_group`], the
 /// bits of one at a time).
 fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
@@ -515,14 +515,14 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
             let t: [f32; PACKET] = std::array::from_fn(|k| hits.t.get(base + k).copied().unwrap_or(0.0));
             let one = crate::lanes::set(lanes).all(|k| hits.object[base + k] == object);
             let (origin, dir) = (&rays.origin.packets()[g], &rays.dir.packets()[g]);
-            match objects[object as usize].hit_group(origin, dir, &t).filter(|_| one) {
+            let together = if one { objects[object as usize].hit_group(origin, dir, &t, lanes) } else { None };
+            match together {
                 Some(h) => describe_group(ctx, hits, g, lanes, object, &h),
                 None => {
                     for k in crate::lanes::set(lanes) {
-                        let (lane, object) = (base + k, hits.object[base + k]);
-                        let c =
-                            lancer_shapes::ShapeHit { t: t[k], normal: Vec3::ZERO, part: 0, bary: glam::Vec2::ZERO };
-                        describe(ctx, rays, hits, lane, object, &c);
+                        let (lane, i) = (base + k, hits.object[base + k]);
+                        let h = objects[i as usize].hit_at(i, rays.origin.at(lane), rays.dir.at(lane), t[k]);
+                        store(ctx, hits, lane, i, &h);
                     }
                 }
             }
@@ -533,8 +533,14 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
 /// The hit of `lane` on object `i` at the crossing `c`, into the hit columns.
 #[inline(always)]
 fn describe(ctx: &ShadeContext<'_>, rays: &Rays, hits: &mut Hits, lane: usize, i: u32, c: &lancer_shapes::ShapeHit) {
+    let h = ctx.geometry.objects[i as usize].hit(i, rays.origin.at(lane), rays.dir.at(lane), c);
+    store(ctx, hits, lane, i, &h);
+}
+
+/// The hit `h` of `lane` on object `i`, into the hit columns.
+#[inline(always)]
+fn store(ctx: &ShadeContext<'_>, hits: &mut Hits, lane: usize, i: u32, h: &lancer_shapes::Hit) {
     let object = &ctx.geometry.objects[i as usize];
-    let h = object.hit(i, rays.origin.at(lane), rays.dir.at(lane), c);
     hits.t[lane] = h.t;
     hits.point.set(lane, h.point);
     hits.local[lane] = h.local;

@@ -5,7 +5,7 @@
 
 use glam::{Affine3A, Mat3A, Vec2, Vec3};
 
-use crate::{Aabb, Bvh, LocalSurface, Shape, ShapeHit};
+use crate::{Aabb, Bvh, LocalSurface, Shape, ShapeHit, lanes};
 
 /// The inverse of `m` if `m` is a usable placement: finite, with a non-zero determinant and a
 /// finite inverse. The one test for every transform (objects and CSG operands), so the scene
@@ -251,80 +251,64 @@ impl Object {
     }
 
     /// Whether [`Object::hit_group`] describes the object's hits eight at a time (from their
-    /// distances alone): a sphere scaled alike on every axis, a plane, a torus.
+    /// distances alone, see [`Object::hit_at`]): a sphere scaled alike on every axis, a plane,
+    /// a torus.
     #[inline]
     pub fn hits_in_groups(&self) -> bool {
         !matches!(self.fast, Fast::None) || matches!(self.shape, Shape::Torus { .. })
     }
 
+    /// [`Object::hit`] of the crossing at `t`, for an object whose hits are described from
+    /// their distance alone ([`Object::hits_in_groups`]: its crossings carry nothing else).
+    #[inline]
+    pub fn hit_at(&self, index: u32, o: Vec3, d: Vec3, t: f32) -> Hit {
+        debug_assert!(self.hits_in_groups(), "a shape whose crossings carry more than t");
+        self.hit(index, o, d, &ShapeHit { t, normal: Vec3::ZERO, part: 0, bary: Vec2::ZERO })
+    }
+
     /// [`Object::hit`] for eight rays at once (`o`, `d` as packets, their crossings at `t`)
     /// when the object has a world-space form (a sphere scaled alike on every axis, a plane) or
     /// is a torus: the same operations in the same order, eight lanes (four in f64) at a time,
-    /// so each lane gets the bits `hit` gives it alone. `None` for any other object (and for a
-    /// torus hit on its axis). Lanes the caller has no crossing for come out as garbage, to be
-    /// left out.
-    pub fn hit_group(&self, o: &Packet, d: &Packet, t: &[f32; 8]) -> Option<HitGroup> {
-        use wide::{CmpGt, CmpLt, f32x8, f64x4};
-        // `o.as_dvec3() + t as f64 * d.as_dvec3()`, four lanes at a time.
-        let in_f64 = |v: &[f32; 8], half: usize| f64x4::new(std::array::from_fn(|k| v[4 * half + k] as f64));
-        let on_line = |half: usize| -> [f64x4; 3] {
-            let t = in_f64(t, half);
-            std::array::from_fn(|a| in_f64(&o[a], half) + t * in_f64(&d[a], half))
-        };
-        // Two halves of f64 lanes rounded into eight f32 lanes.
-        let to_f32 = |halves: [[f64x4; 3]; 2]| -> [f32x8; 3] {
-            std::array::from_fn(|a| {
-                let (lo, hi) = (halves[0][a].to_array(), halves[1][a].to_array());
-                f32x8::new(std::array::from_fn(|k| if k < 4 { lo[k] as f32 } else { hi[k - 4] as f32 }))
-            })
-        };
-        let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    /// so each lane gets the bits `hit` gives it alone. Only the lanes set in `live` count; the
+    /// others come out as garbage. `None` for any other object, and for a torus hit of a live
+    /// lane on the torus's axis (where `hit` takes another path).
+    pub fn hit_group(&self, o: &Packet, d: &Packet, t: &[f32; 8], live: u8) -> Option<HitGroup> {
+        use wide::{CmpLt, f32x8, f64x4};
         let (point, local, normal) = match self.fast {
-            Fast::None => return self.hit_group_placed(o, d, t),
+            Fast::None => return self.hit_group_placed(o, d, t, live),
             Fast::Sphere { centre, radius, .. } => {
                 let c = centre.as_dvec3().to_array().map(f64x4::splat);
                 // `u = (p - centre).normalize_or(DVec3::Y)`.
-                let u = [0, 1].map(|half| -> [f64x4; 3] {
-                    let p = on_line(half);
-                    let v: [f64x4; 3] = std::array::from_fn(|a| p[a] - c[a]);
-                    let rcp = f64x4::ONE / (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                    let ok = rcp.abs().cmp_lt(f64x4::splat(f64::INFINITY)) & rcp.cmp_gt(f64x4::ZERO);
-                    let fallback = [f64x4::ZERO, f64x4::ONE, f64x4::ZERO];
-                    std::array::from_fn(|a| ok.blend(v[a] * rcp, fallback[a]))
+                let u = [0, 1].map(|half| {
+                    let p = lanes::on_line64(o, d, t, half);
+                    lanes::unit_or64(&std::array::from_fn(|a| p[a] - c[a]), [0.0, 1.0, 0.0])
                 });
                 let r = f64x4::splat(radius);
                 let ru = u.map(|h| h.map(|x| r * x));
                 // `(centre + radius u).as_vec3()`, and `(radius u).as_vec3()` into object space.
-                let point = to_f32(ru.map(|h| std::array::from_fn(|a| c[a] + h[a])));
-                let local = linear(&self.object_from_world.matrix3, &to_f32(ru), None);
+                let point = lanes::to_f32(ru.map(|h| std::array::from_fn(|a| c[a] + h[a])));
+                let local = lanes::linear(&self.object_from_world.matrix3, &lanes::to_f32(ru), None);
                 // `u.as_vec3().normalize_or(Vec3::Y)`.
-                let unit = to_f32(u);
-                let rcp = f32x8::ONE / dot(&unit, &unit).sqrt();
-                let ok = rcp.abs().cmp_lt(f32x8::splat(f32::INFINITY)) & rcp.cmp_gt(f32x8::ZERO);
-                let fallback = [f32x8::ZERO, f32x8::ONE, f32x8::ZERO];
-                let normal: [f32x8; 3] = std::array::from_fn(|a| ok.blend(unit[a] * rcp, fallback[a]));
-                (point, local, normal)
+                (point, local, lanes::unit_or(&lanes::to_f32(u), Vec3::Y))
             }
             Fast::Plane { normal, offset } => {
                 let n = normal.as_dvec3().to_array().map(f64x4::splat);
                 let off = f64x4::splat(offset as f64);
                 // `(p - n * (n.dot(p) - offset)).as_vec3()`.
-                let point = to_f32([0, 1].map(|half| {
-                    let p = on_line(half);
-                    let k = (n[0] * p[0] + n[1] * p[1] + n[2] * p[2]) - off;
+                let point = lanes::to_f32([0, 1].map(|half| {
+                    let p = lanes::on_line64(o, d, t, half);
+                    let k = lanes::dot(&n, &p) - off;
                     std::array::from_fn(|a| p[a] - n[a] * k)
                 }));
                 let m = &self.object_from_world;
-                let placed = linear(&m.matrix3, &point, Some(Vec3::from(m.translation)));
+                let placed = lanes::linear(&m.matrix3, &point, Some(Vec3::from(m.translation)));
                 // `* Vec3::new(1.0, 0.0, 1.0)`: y times zero (its sign, or NaN, kept as it is).
                 let local = [placed[0] * f32x8::ONE, placed[1] * f32x8::ZERO, placed[2] * f32x8::ONE];
                 (point, local, normal.to_array().map(f32x8::splat))
             }
         };
-        let gt_max = crate::stream::gt_max;
-        let reach = gt_max(point[0].abs(), gt_max(point[1].abs(), point[2].abs()));
-        let error = (f32x8::splat(f32::EPSILON) * reach).to_array();
-        let front = dot(&normal, &d.map(f32x8::new)).cmp_lt(f32x8::ZERO).move_mask() as u8;
+        let error = (f32x8::splat(f32::EPSILON) * lanes::reach(&point)).to_array();
+        let front = lanes::dot(&normal, &d.map(f32x8::new)).cmp_lt(f32x8::ZERO).move_mask() as u8;
         Some(HitGroup {
             point: point.map(|c| c.to_array()),
             local: local.map(|c| c.to_array()),
@@ -337,82 +321,65 @@ impl Object {
     /// [`Object::hit_group`] for a torus (any placement): [`Object::hit`]'s general path
     /// (the line into the torus's own space, [`Shape::surface`]'s nearest point of the tube and
     /// its normal, the normal into world space, [`place`]) with the same operations in the same
-    /// order. `None` for any other shape, or when a lane meets the torus's axis (`rho` zero,
-    /// where `surface` takes another path).
-    fn hit_group_placed(&self, o: &Packet, d: &Packet, t: &[f32; 8]) -> Option<HitGroup> {
-        use wide::{CmpEq, CmpGt, CmpLt, f32x8, f64x4};
+    /// order. `None` for any other shape, or when a live lane is on the torus's axis (`rho`
+    /// zero, in f64 or once rounded to f32, where `surface` and `torus::normal` take other
+    /// paths).
+    fn hit_group_placed(&self, o: &Packet, d: &Packet, t: &[f32; 8], live: u8) -> Option<HitGroup> {
+        use wide::{CmpEq, CmpLt, f32x8, f64x4};
         let Shape::Torus { minor } = self.shape else {
             return None;
-        };
-        let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        // `normalize_or(fallback)` lane by lane, in f32.
-        let unit_or = |v: [f32x8; 3], fallback: Vec3| -> [f32x8; 3] {
-            let rcp = f32x8::ONE / dot(&v, &v).sqrt();
-            let ok = rcp.abs().cmp_lt(f32x8::splat(f32::INFINITY)) & rcp.cmp_gt(f32x8::ZERO);
-            std::array::from_fn(|a| ok.blend(v[a] * rcp, f32x8::splat(fallback[a])))
         };
         let (wo, wd) = (o.map(f32x8::new), d.map(f32x8::new));
         let (oo, od) = if self.identity {
             (wo, wd)
         } else {
             let m = &self.object_from_world;
-            (linear(&m.matrix3, &wo, Some(Vec3::from(m.translation))), linear(&m.matrix3, &wd, None))
+            (lanes::linear(&m.matrix3, &wo, Some(Vec3::from(m.translation))), lanes::linear(&m.matrix3, &wd, None))
         };
         let (oo, od) = (oo.map(f32x8::to_array), od.map(f32x8::to_array));
-        let in_f64 = |v: &[f32; 8], half: usize| f64x4::new(std::array::from_fn(|k| v[4 * half + k] as f64));
         // The nearest point of the tube, in f64: `p` on the line, `c` on the centre circle.
-        let mut axis = false;
-        let q = [0, 1].map(|half| -> [f64x4; 3] {
-            let t = in_f64(t, half);
-            let p: [f64x4; 3] = std::array::from_fn(|a| in_f64(&oo[a], half) + t * in_f64(&od[a], half));
+        let mut axis = 0u8;
+        let q = [0, 1].map(|half| {
+            let p = lanes::on_line64(&oo, &od, t, half);
             let rho = (p[0] * p[0] + p[2] * p[2]).sqrt();
-            axis |= rho.cmp_eq(f64x4::ZERO).move_mask() != 0;
+            axis |= (rho.cmp_eq(f64x4::ZERO).move_mask() as u8) << (4 * half);
             let c = [p[0] / rho, f64x4::ZERO, p[2] / rho];
-            let v: [f64x4; 3] = std::array::from_fn(|a| p[a] - c[a]);
-            let rcp = f64x4::ONE / (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let ok = rcp.abs().cmp_lt(f64x4::splat(f64::INFINITY)) & rcp.cmp_gt(f64x4::ZERO);
-            let fallback = [f64x4::ZERO, f64x4::ONE, f64x4::ZERO];
+            let toward = lanes::unit_or64(&std::array::from_fn(|a| p[a] - c[a]), [0.0, 1.0, 0.0]);
             let r = f64x4::splat(minor as f64);
-            std::array::from_fn(|a| c[a] + ok.blend(v[a] * rcp, fallback[a]) * r)
+            std::array::from_fn(|a| c[a] + toward[a] * r)
         });
-        if axis {
-            return None;
-        }
-        let local: [f32x8; 3] = std::array::from_fn(|a| {
-            let (lo, hi) = (q[0][a].to_array(), q[1][a].to_array());
-            f32x8::new(std::array::from_fn(|k| if k < 4 { lo[k] as f32 } else { hi[k - 4] as f32 }))
-        });
-        let gt_max = crate::stream::gt_max;
-        let local_error = f32x8::splat(f32::EPSILON) * gt_max(local[0].abs(), gt_max(local[1].abs(), local[2].abs()));
+        let local = lanes::to_f32(q);
         // `torus::normal` of the point: away from the centre circle.
         let rho = (local[0] * local[0] + local[2] * local[2]).sqrt();
-        if rho.cmp_eq(f32x8::ZERO).move_mask() != 0 {
+        axis |= rho.cmp_eq(f32x8::ZERO).move_mask() as u8;
+        if axis & live != 0 {
             return None;
         }
+        let local_error = f32x8::splat(f32::EPSILON) * lanes::reach(&local);
         let centre = [local[0] / rho, f32x8::ZERO, local[2] / rho];
-        let n = unit_or(std::array::from_fn(|a| local[a] - centre[a]), Vec3::Y);
+        let n = lanes::unit_or(&std::array::from_fn(|a| local[a] - centre[a]), Vec3::Y);
         // `world_normal`, then `place` (or `place_unmoved`).
         let normal = if self.identity {
-            unit_or(n, Vec3::Y)
+            lanes::unit_or(&n, Vec3::Y)
         } else {
-            unit_or(linear(&self.world_from_object_normal, &n, None), Vec3::Y)
+            lanes::unit_or(&lanes::linear(&self.world_from_object_normal, &n, None), Vec3::Y)
         };
         let n_abs = normal.map(f32x8::abs);
         let (point, error) = if self.identity {
             let rounding = local.map(|c| f32x8::splat(GAMMA3) * c.abs());
             let error = std::array::from_fn(|a| rounding[a] + local_error);
-            (local, dot(&n_abs, &error))
+            (local, lanes::dot(&n_abs, &error))
         } else {
             let m = &self.world_from_object;
             let abs = Mat3A::from_cols(m.matrix3.x_axis.abs(), m.matrix3.y_axis.abs(), m.matrix3.z_axis.abs());
-            let world = linear(&m.matrix3, &local, Some(Vec3::from(m.translation)));
-            let spread = linear(&abs, &local.map(f32x8::abs), Some(Vec3::from(m.translation.abs())));
+            let world = lanes::linear(&m.matrix3, &local, Some(Vec3::from(m.translation)));
+            let spread = lanes::linear(&abs, &local.map(f32x8::abs), Some(Vec3::from(m.translation.abs())));
             let rounding = spread.map(|c| f32x8::splat(GAMMA3) * c);
-            let carried = linear(&abs, &[local_error; 3], None);
+            let carried = lanes::linear(&abs, &[local_error; 3], None);
             let error = std::array::from_fn(|a| rounding[a] + carried[a]);
-            (world, dot(&n_abs, &error))
+            (world, lanes::dot(&n_abs, &error))
         };
-        let front = dot(&normal, &wd).cmp_lt(f32x8::ZERO).move_mask() as u8;
+        let front = lanes::dot(&normal, &wd).cmp_lt(f32x8::ZERO).move_mask() as u8;
         Some(HitGroup {
             point: point.map(|c| c.to_array()),
             local: local.map(|c| c.to_array()),
@@ -442,9 +409,10 @@ impl Object {
 
     /// A world-space ball (centre, radius) that holds the object, from the shape's own ball
     /// ([`Shape::ball_radius`]) through the placement: its radius times a bound on how much the
-    /// placement stretches a vector (the square root of the largest row sum of `MᵀM`, `M` the
+    /// placement stretches a vector (the square root of the largest row sum of `|MᵀM|`, `M` the
     /// linear part: its largest singular value exactly for a rotation and a uniform scale).
-    /// `None` for shapes with no such ball.
+    /// Exact but for rounding: a caller that culls by it widens it (the block tracer's plan
+    /// does). `None` for shapes with no such ball.
     pub fn ball(&self) -> Option<(Vec3, f32)> {
         let r = self.shape.ball_radius()?;
         let m = self.world_from_object.matrix3;
@@ -461,20 +429,8 @@ impl Object {
     }
 }
 
-/// `m v (+ translation)` lane by lane, in glam's order: `((x_axis v.x + y_axis v.y) + z_axis
-/// v.z) + translation`.
-#[inline(always)]
-fn linear(m: &Mat3A, v: &[wide::f32x8; 3], translation: Option<Vec3>) -> [wide::f32x8; 3] {
-    use wide::f32x8;
-    let col = |c: glam::Vec3A, a: usize| f32x8::splat(c[a]);
-    std::array::from_fn(|a| {
-        let sum = col(m.x_axis, a) * v[0] + col(m.y_axis, a) * v[1] + col(m.z_axis, a) * v[2];
-        translation.map_or(sum, |t| sum + f32x8::splat(t[a]))
-    })
-}
-
 /// Eight hits described at once ([`Object::hit_group`]): for each lane, what [`Hit`] holds of a
-/// world-space sphere or plane (whose shading normal is its normal, its texture coordinates
+/// sphere, a plane or a torus (whose shading normal is its normal, its texture coordinates
 /// zero).
 #[derive(Clone, Copy, Debug)]
 pub struct HitGroup {
@@ -703,8 +659,7 @@ impl Geometry {
         let outward = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]).cmp_gt(f32x8::ZERO);
         // Negated by the sign bit, as scalar `-` does (wide's `-c` is `0 − c`: +0 for 0).
         let side = n.map(|c| outward.blend(c, c ^ f32x8::splat(-0.0)));
-        use crate::stream::gt_max;
-        let reach = gt_max(p[0].abs(), gt_max(p[1].abs(), p[2].abs()));
+        let reach = lanes::reach(&p);
         let offset = (f32x8::new(*error) * f32x8::splat(OFFSET_MARGIN)).max(f32x8::splat(OFFSET_FLOOR))
             + reach * f32x8::splat(f32::EPSILON);
         let behind = flat | (outward & convex);
@@ -963,23 +918,23 @@ impl Geometry {
             (p, d)
         } else {
             let m = &o.object_from_world;
-            (linear(&m.matrix3, &p, Some(Vec3::from(m.translation))), linear(&m.matrix3, &d, None))
+            (lanes::linear(&m.matrix3, &p, Some(Vec3::from(m.translation))), lanes::linear(&m.matrix3, &d, None))
         };
         // `sphere_roots`, then the farther root: where the line leaves the unit sphere.
-        let dot = |a: &[f32x8; 3], b: &[f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let dot = lanes::dot::<f32x8>;
         let a = dot(&d, &d);
         let b = dot(&p, &d);
         let s = b / a;
         let q: [f32x8; 3] = std::array::from_fn(|k| p[k] - s * d[k]);
         let disc = a * (f32x8::ONE - dot(&q, &q));
         let c = dot(&p, &p) - f32x8::ONE;
-        let h = (b + disc.sqrt().copysign(b)) ^ f32x8::splat(-0.0);
+        let h = lanes::neg(b + disc.sqrt().copysign(b));
         let (r0, r1) = (h / a, c / h);
         let zero = h.cmp_eq(f32x8::ZERO);
         let far = zero.blend(f32x8::ZERO, r0.cmp_le(r1).blend(r1, r0));
         // (`!(disc < 0)`: a NaN goes on, as in `half_quadratic`.)
         let found = !a.cmp_eq(f32x8::ZERO) & !disc.cmp_lt(f32x8::ZERO) & far.cmp_ge(f32x8::ZERO);
-        let hit = o.hit_group(&from, dir, &far.to_array())?;
+        let hit = o.hit_group(&from, dir, &far.to_array(), u8::MAX)?;
         Some((hit, found.move_mask() as u8))
     }
 
@@ -1227,7 +1182,8 @@ mod tests {
                         hit[k] = Some(object.hit(7, from, dir, &c));
                     }
                 }
-                let group = object.hit_group(&o, &d, &t).expect("a world-space form");
+                let live = (0..8).fold(0u8, |m, k| m | u8::from(hit[k].is_some()) << k);
+                let group = object.hit_group(&o, &d, &t, live).expect("a world-space form");
                 for (k, h) in hit.iter().enumerate() {
                     let Some(h) = h else { continue };
                     let lane = |p: &Packet| Vec3::new(p[0][k], p[1][k], p[2][k]);
@@ -1242,9 +1198,21 @@ mod tests {
             }
         }
         assert!(lanes > 6000, "{lanes} lanes compared");
+        // A lane with no crossing that sits on a torus's axis does not stop the others: only a
+        // live lane there sends the group lane by lane.
+        let torus = Object::new(Shape::Torus { minor: 0.25 }, Affine3A::IDENTITY, 0).unwrap();
+        let (mut o, mut d, mut t) = ([[0.0f32; 8]; 3], [[0.0f32; 8]; 3], [0.0f32; 8]);
+        for k in 1..8 {
+            let from = Vec3::new(-5.0, 0.02 * k as f32, 0.1);
+            let c = torus.intersect(from, Vec3::X, 0.0, f32::INFINITY).expect("a crossing");
+            (o[0][k], o[1][k], o[2][k], d[0][k], t[k]) = (from.x, from.y, from.z, 1.0, c.t);
+        }
+        o[1][0] = 2.0;
+        assert!(torus.hit_group(&o, &d, &t, 0b1111_1110).is_some());
+        assert!(torus.hit_group(&o, &d, &t, u8::MAX).is_none());
         // Any other object has no such form.
         let cube = Object::new(Shape::Cube, Affine3A::IDENTITY, 0).unwrap();
-        assert!(cube.hit_group(&[[0.0; 8]; 3], &[[1.0; 8]; 3], &[1.0; 8]).is_none());
+        assert!(cube.hit_group(&[[0.0; 8]; 3], &[[1.0; 8]; 3], &[1.0; 8], u8::MAX).is_none());
     }
 
     #[test]

@@ -8,6 +8,7 @@ mod aabb;
 mod bvh;
 mod csg;
 mod geometry;
+mod lanes;
 mod mesh;
 mod quartic;
 mod shape;

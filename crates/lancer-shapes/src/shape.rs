@@ -196,9 +196,10 @@ impl Shape {
         }
     }
 
-    /// The radius of a ball around the object-space origin that holds the shape, where it is
-    /// smaller than its box's (a torus: its tube's outer circle; the unit cube's shapes: the
-    /// corners or rims they reach); `None` for the others.
+    /// The radius of a ball around the object-space origin that holds the shape (a torus: its
+    /// tube's outer circle; the shapes in the unit cube: the corners or rims they reach; up to
+    /// the rounding of the root, which a caller that culls by it widens); `None` for shapes
+    /// without one (a plane, a CSG tree, a mesh: their boxes serve).
     pub fn ball_radius(&self) -> Option<f32> {
         match self {
             Shape::Sphere => Some(1.0),

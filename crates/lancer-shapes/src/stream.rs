@@ -1,7 +1,7 @@
 //! Rays traced together through a small scene: object after object, eight rays at a time. A few
 //! objects tested against a whole block of rays cost less than a walk down the BVH per ray:
 //! spheres and planes are tested in world space with SIMD arithmetic, every other shape behind
-//! a SIMD test of its world box.
+//! a SIMD test of its world box (a torus then four rays at a time, the others one by one).
 //!
 //! Each ray's answer is the crossing with the smallest `t`, by the same arithmetic for each shape
 //! as [`crate::Geometry::closest`] (which may pick another object only on an exact tie, two
@@ -12,6 +12,7 @@
 use glam::Vec3;
 use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, f32x8, i32x8};
 
+use crate::lanes::gt_max;
 use crate::{Aabb, Lines, Object, ShapeHit};
 
 /// Rays per SIMD group: eight, an AVX register (two SSE registers in the baseline x86-64
@@ -199,12 +200,6 @@ pub(crate) fn closest_each(
             }
         }
     });
-}
-
-/// `if a > b { a } else { b }` lane by lane: glam's `max_element` step, NaN included.
-#[inline(always)]
-pub(crate) fn gt_max(a: Fx, b: Fx) -> Fx {
-    a.cmp_gt(b).blend(a, b)
 }
 
 impl Block {

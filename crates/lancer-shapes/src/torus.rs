@@ -192,10 +192,11 @@ pub fn first_t(minor: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32
 
 /// [`first_t`] with `tmin = 0` for up to four lines at once (`n` of them; `o`, `d` in the
 /// torus's own space): the checks before the quartic (the sign test of [`never_ahead`], then
-/// [`Quartic::of`]'s bounding sphere, range, slab and hole) and the quartic's coefficients made
-/// four lanes at a time in f64, with the same operations in the same order, so each lane gets
-/// the bits it gets alone; the quartic of each lane left is then solved alone. A line with a
-/// coordinate that is not finite is left to [`first_t`] (where `min` and `max` meet a NaN).
+/// [`Quartic::of`]'s bounding sphere, range, slab and hole), the quartic's coefficients and the
+/// first polish of each quartic's least rough root made four lanes at a time in f64, with the
+/// same operations in the same order, so each line gets the bits it gets alone; the rough roots,
+/// and the rest of each solve, lane by lane. When a line has a coordinate that is not finite,
+/// all of them are left to [`first_t`] (where `min` and `max` meet a NaN).
 pub fn first_t4(minor: f32, o: &[Vec3; 4], d: &[Vec3; 4], tmax: &[f32; 4], n: usize) -> [Option<f32>; 4] {
     use wide::{CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, f64x4};
     let mut out = [None; 4];
@@ -209,7 +210,7 @@ pub fn first_t4(minor: f32, o: &[Vec3; 4], d: &[Vec3; 4], tmax: &[f32; 4], n: us
     let lane = |k: usize| if k < n { k } else { 0 };
     let axis = |v: &[Vec3; 4], a: usize| f64x4::new(std::array::from_fn(|k| v[lane(k)][a] as f64));
     let (od, dd) = ([0, 1, 2].map(|a| axis(o, a)), [0, 1, 2].map(|a| axis(d, a)));
-    let dot = |a: &[f64x4; 3], b: &[f64x4; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let dot = crate::lanes::dot::<f64x4>;
     let r = minor as f64;
     let bound = 1.0 + r;
     let len = dot(&dd, &dd).sqrt();
@@ -232,8 +233,7 @@ pub fn first_t4(minor: f32, o: &[Vec3; 4], d: &[Vec3; 4], tmax: &[f32; 4], n: us
     let q: [f64x4; 3] = std::array::from_fn(|a| od[a] - b * u[a]);
     let disc = f64x4::splat(bound * bound) - dot(&q, &q);
     let root = disc.sqrt();
-    // `-b` as scalar code negates: the sign bit flipped (wide's `-x` is `0 − x`).
-    let shift = (b ^ f64x4::splat(-0.0)) - root;
+    let shift = crate::lanes::neg64(b) - root;
     let chord = f64x4::splat(2.0) * root;
     let (t_in, t_out) = (shift / len, (shift + chord) / len);
     let limit = f64x4::new(std::array::from_fn(|k| tmax[lane(k)] as f64));

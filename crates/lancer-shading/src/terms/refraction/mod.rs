@@ -121,7 +121,7 @@ pub fn passage_notes(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Vec<
 /// and out with no total internal reflection (and there the shading normal is the geometric
 /// one, so [`bend`]'s second try changes nothing), each leaving from its origin (and ignoring
 /// its object) along its direction. The other lanes are left to [`passage`]; `None` when the
-/// object has no such form. `n` is the object's index.
+/// object has no such form. `object` is the sphere's index, `n` its refractive index.
 pub(crate) fn passage_group(
     ctx: &ShadeContext<'_>,
     hits: &lancer_core::rays::Hits,
