@@ -31,13 +31,10 @@ pub(crate) fn neg(x: f32x8) -> f32x8 {
 /// The lanes whose bit is set in `bits`, as a mask.
 #[inline(always)]
 pub(crate) fn mask(bits: u8) -> f32x8 {
-    f32x8::new(std::array::from_fn(|j| truth((bits >> j) & 1 != 0)))
-}
-
-/// A lane's mask value for `b`, with no branch: all bits set for true, none for false.
-#[inline(always)]
-pub(crate) fn truth(b: bool) -> f32 {
-    f32::from_bits(u32::from(b).wrapping_neg())
+    use wide::{CmpEq as _, i32x8};
+    // Lane `j`'s bit picked out of the byte in every lane at once.
+    let lane_bit = i32x8::new([1, 2, 4, 8, 16, 32, 64, 128]);
+    bytemuck::cast((i32x8::splat(i32::from(bits)) & lane_bit).cmp_eq(lane_bit))
 }
 
 /// The lanes set in `bits`, in order.
@@ -57,6 +54,42 @@ pub(crate) fn set(mut bits: u8) -> impl Iterator<Item = usize> {
 #[inline(always)]
 pub(crate) fn bits(len: usize, on: impl Fn(usize) -> bool) -> u8 {
     (0..len).fold(0u8, |m, j| m | (u8::from(on(j)) << j))
+}
+
+/// Bit `j` set where `values[j] == v`, for the first `values.len()` (at most [`PACKET`])
+/// lanes: one SIMD comparison for a whole group.
+#[inline(always)]
+pub(crate) fn equal_bits(values: &[u32], v: u32) -> u8 {
+    use wide::{CmpEq as _, i32x8};
+    match <&[u32; PACKET]>::try_from(values) {
+        Ok(all) => i32x8::new(all.map(|x| x as i32)).cmp_eq(i32x8::splat(v as i32)).move_mask() as u8,
+        Err(_) => bits(values.len(), |j| values[j] == v),
+    }
+}
+
+/// Bit `j` set where `values[j] < limit`, for the first `values.len()` (at most [`PACKET`])
+/// lanes: one SIMD comparison for a whole group.
+#[inline(always)]
+pub(crate) fn below_bits(values: &[u8], limit: u8) -> u8 {
+    use wide::{CmpLt as _, i32x8};
+    match <&[u8; PACKET]>::try_from(values) {
+        Ok(all) => i32x8::new(all.map(i32::from)).cmp_lt(i32x8::splat(i32::from(limit))).move_mask() as u8,
+        Err(_) => bits(values.len(), |j| values[j] < limit),
+    }
+}
+
+/// Bit `j` set where `flags[j]`, for the first `flags.len()` (at most [`PACKET`]) lanes: a
+/// whole group's flags gathered from its eight bytes at once.
+#[inline(always)]
+pub(crate) fn flag_bits(flags: &[bool]) -> u8 {
+    match <&[bool; PACKET]>::try_from(flags) {
+        Ok(all) => {
+            // Each byte 0 or 1; the product gathers byte j's bit into bit 56 + j.
+            let bytes = all.iter().enumerate().fold(0u64, |x, (j, &f)| x | (u64::from(f) << (8 * j)));
+            (bytes.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u8
+        }
+        Err(_) => bits(flags.len(), |j| flags[j]),
+    }
 }
 
 /// `v != Vec3::ZERO` lane by lane (a NaN axis is not zero).
@@ -159,8 +192,7 @@ impl Group {
         let n = hits.object.len();
         (0..n).step_by(PACKET).map(move |base| {
             let len = (n - base).min(PACKET);
-            let objects = &hits.object[base..base + len];
-            let hit = bits(len, |j| objects[j] != NO_HIT);
+            let hit = !equal_bits(&hits.object[base..base + len], NO_HIT) & bits(len, |_| true);
             Group { base, len, hit }
         })
     }
@@ -210,8 +242,7 @@ impl Group {
             return None;
         }
         let first = indices[self.hit.trailing_zeros() as usize];
-        let differ = bits(self.len, |j| indices[j] != first) & self.hit;
-        (differ == 0).then_some(first)
+        (equal_bits(indices, first) & self.hit == self.hit).then_some(first)
     }
 
     /// The hit points, geometric normals, error bounds and objects of the lanes (a lane past
@@ -229,8 +260,7 @@ impl Group {
     /// The lanes whose ray's children are within the depth limit `max_depth`.
     #[inline(always)]
     pub(crate) fn may_spawn(&self, rays: &Rays, max_depth: u8) -> u8 {
-        let depth = &rays.depth[self.base..self.base + self.len];
-        bits(self.len, |j| depth[j] < max_depth)
+        below_bits(&rays.depth[self.base..self.base + self.len], max_depth)
     }
 
     /// `Col_Ω` of the lanes.
@@ -243,8 +273,7 @@ impl Group {
     #[inline(always)]
     pub(crate) fn facing(&self, hits: &Hits) -> V3 {
         let shading = load(&hits.shading.packets()[self.base / PACKET]);
-        let fronts = &hits.front[self.base..self.base + self.len];
-        let front = f32x8::new(std::array::from_fn(|j| truth(fronts.get(j).copied().unwrap_or(false))));
+        let front = mask(flag_bits(&hits.front[self.base..self.base + self.len]));
         shading.map(|c| front.blend(c, neg(c)))
     }
 
@@ -327,6 +356,29 @@ mod tests {
                 assert_eq!(got.to_bits(), want.to_bits(), "lane {lane}");
                 assert_eq!(on >> j & 1 == 1, hit && want > 0.0, "lane {lane}");
             }
+        }
+    }
+
+    #[test]
+    fn a_groups_bits_gathered_at_once_are_those_lane_by_lane() {
+        // Every pattern of eight flags and of eight values equal or not, whole groups and cut.
+        for pattern in 0..=255u8 {
+            let flags: Vec<bool> = (0..8).map(|j| pattern >> j & 1 == 1).collect();
+            let values: Vec<u32> = (0..8).map(|j| if pattern >> j & 1 == 1 { 7 } else { j * 3 + 100 }).collect();
+            for len in 1..=8 {
+                let want = super::bits(len, |j| flags[j]);
+                assert_eq!(super::flag_bits(&flags[..len]), want, "{pattern:08b}, {len} lanes");
+                assert_eq!(super::equal_bits(&values[..len], 7), want, "{pattern:08b}, {len} lanes");
+                let depths: Vec<u8> =
+                    (0..8).map(|j| if pattern >> j & 1 == 1 { j as u8 } else { 200 + j as u8 }).collect();
+                assert_eq!(super::below_bits(&depths[..len], 200), want, "{pattern:08b}, {len} lanes");
+            }
+        }
+        assert_eq!(super::equal_bits(&[u32::MAX; 8], u32::MAX), 0xFF);
+        // A mask from bits: all ones where the bit is set, zero elsewhere.
+        for pattern in 0..=255u8 {
+            let got = super::mask(pattern).to_array().map(f32::to_bits);
+            assert_eq!(got, std::array::from_fn(|j| if pattern >> j & 1 == 1 { u32::MAX } else { 0 }), "{pattern:08b}");
         }
     }
 

@@ -513,7 +513,8 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
             let base = g * PACKET;
             let object = hits.object[base + lanes.trailing_zeros() as usize];
             let t: [f32; PACKET] = std::array::from_fn(|k| hits.t.get(base + k).copied().unwrap_or(0.0));
-            let one = crate::lanes::set(lanes).all(|k| hits.object[base + k] == object);
+            let one =
+                crate::lanes::equal_bits(&hits.object[base..(base + PACKET).min(rays.len())], object) & lanes == lanes;
             let (origin, dir) = (&rays.origin.packets()[g], &rays.dir.packets()[g]);
             let together = if one { objects[object as usize].hit_group(origin, dir, &t, lanes) } else { None };
             match together {

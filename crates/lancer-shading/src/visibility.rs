@@ -2,7 +2,7 @@
 //! direction to the light and the light arriving through the shadow model, eight lanes at once.
 
 use glam::Vec3;
-use lancer_core::rays::{CHUNK_LANES, Hits, LightSamples, NO_HIT, PACKET};
+use lancer_core::rays::{CHUNK_LANES, Hits, LightSamples, PACKET};
 use lancer_shapes::Origin;
 use wide::{CmpGt, CmpLe, CmpLt, f32x8};
 
@@ -29,13 +29,19 @@ pub(crate) fn visibility_system(
         // The lanes with a hit some term reads lights on, a bit per lane of each group. (No
         // branch per lane: a lane with no hit reads material 0's entry and drops it.)
         let mut alive = [0u8; CHUNK_LANES / PACKET];
-        for (g, base) in (0..n).step_by(PACKET).enumerate() {
-            alive[g] = lanes::bits((n - base).min(PACKET), |j| {
-                let lane = base + j;
-                let hit = hits.object[lane] != NO_HIT;
-                let material = if hit { hits.material[lane] as usize } else { 0 };
-                hit & lit.get(material).copied().unwrap_or(false)
-            });
+        for (g, group) in Group::all(hits).enumerate() {
+            let indices = &hits.material[group.base..group.base + group.len];
+            alive[g] = match group.one_material(indices) {
+                // One material for every hit lane (the usual case): looked up once.
+                Some(material) => {
+                    if lit.get(material as usize).copied().unwrap_or(false) {
+                        group.hit
+                    } else {
+                        0
+                    }
+                }
+                None => group.hit & lanes::bits(group.len, |j| lit.get(indices[j] as usize).copied().unwrap_or(false)),
+            };
         }
         let mut block = HitBlock::empty(hits, Vec3::ZERO);
         for (k, light) in ctx.lights.iter().enumerate() {

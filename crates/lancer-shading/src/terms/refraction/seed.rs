@@ -65,8 +65,9 @@ impl Term for Refraction {
             // Eight lanes at a time where they all went into one sphere from outside; the rest
             // (and any total internal reflection) lane by lane, in lane order either way.
             let object = chunk.hits.object[group.base + clear.trailing_zeros() as usize];
-            let fronts = lanes::bits(group.len, |j| chunk.hits.front[group.base + j]);
-            let one = group.lanes(clear).all(|(_, lane)| chunk.hits.object[lane] == object);
+            let fronts = lanes::flag_bits(&chunk.hits.front[group.base..group.base + group.len]);
+            let objects = &chunk.hits.object[group.base..group.base + group.len];
+            let one = lanes::equal_bits(objects, object) & clear == clear;
             let together = (one && clear & fronts == clear)
                 .then(|| {
                     let n = ctx.material_of(object).n;
