@@ -224,10 +224,22 @@ impl Rays {
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn push(&mut self, origin: Vec3, skip: u32, dir: Vec3, weight: Vec3, pixel: u32, depth: u8, credit: u16) {
-        self.origin.push(origin);
+        // The three vector columns are as long as each other: where the lane goes is worked out
+        // once for all three.
+        let len = self.origin.len;
+        debug_assert!(self.dir.len == len && self.weight.len == len, "vector columns of different lengths");
+        let k = len % PACKET;
+        let columns = [(&mut self.origin, origin), (&mut self.dir, dir), (&mut self.weight, weight)];
+        for (column, v) in columns {
+            if k == 0 {
+                column.packets.push([[v.x; PACKET], [v.y; PACKET], [v.z; PACKET]]);
+            } else {
+                let p = &mut column.packets[len / PACKET];
+                (p[0][k], p[1][k], p[2][k]) = (v.x, v.y, v.z);
+            }
+            column.len = len + 1;
+        }
         self.skip.push(skip);
-        self.dir.push(dir);
-        self.weight.push(weight);
         self.pixel.push(pixel);
         self.depth.push(depth);
         self.credit.push(credit);
