@@ -334,11 +334,8 @@ pub fn remove_temporaries() {
     }
 }
 
-/// Runs `fill` on a temporary file beside `path` and renames it to `path`; on any error the
-/// temporary file is removed and `path` is untouched, so `path` is always a whole file (the old
-/// one or the new). The file is not forced to disk before the rename: that waited about 10 ms for
-/// the 14 files of the benchmark's `--aov` render, a tenth of the render, for a guarantee an
-/// image does not need (surviving a power cut in the seconds after it is written).
+/// Runs `fill` on a temporary file beside `path`, flushes it to disk and renames it to `path`;
+/// on any error the temporary file is removed and `path` is untouched.
 fn atomically(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<()> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
@@ -351,7 +348,7 @@ fn atomically(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) 
     let result = (|| -> Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         fill(&mut f)?;
-        drop(f);
+        f.sync_all()?;
         std::fs::rename(&tmp, path)?;
         Ok(())
     })();

@@ -227,7 +227,7 @@ impl Rays {
         // The three vector columns are as long as each other: where the lane goes is worked out
         // once for all three.
         let len = self.origin.len;
-        debug_assert!(self.dir.len == len && self.weight.len == len, "vector columns of different lengths");
+        assert!(self.dir.len == len && self.weight.len == len, "vector columns of different lengths");
         let k = len % PACKET;
         let columns = [(&mut self.origin, origin), (&mut self.dir, dir), (&mut self.weight, weight)];
         for (column, v) in columns {
@@ -366,6 +366,23 @@ mod tests {
         Vec3::new(i as f32, -(i as f32), 0.5 * i as f32)
     }
 
+    #[test]
+    fn a_ray_pushed_whole_lands_where_its_columns_pushed_one_by_one_put_it() {
+        // Across several packets and their boundaries: `Rays::push` against each column's own.
+        let mut rays = super::Rays::default();
+        let (mut origin, mut dir, mut weight) = (Vec3s::default(), Vec3s::default(), Vec3s::default());
+        for i in 0..27u32 {
+            let v = |k: f32| Vec3::new(i as f32 + k, -(i as f32) * k, 0.5 * k);
+            rays.push(v(1.0), i, v(2.0), v(3.0), i * 7, (i % 5) as u8, i as u16);
+            origin.push(v(1.0));
+            dir.push(v(2.0));
+            weight.push(v(3.0));
+        }
+        assert_eq!((rays.origin.packets(), rays.origin.len()), (origin.packets(), origin.len()));
+        assert_eq!((rays.dir.packets(), rays.dir.len()), (dir.packets(), dir.len()));
+        assert_eq!((rays.weight.packets(), rays.weight.len()), (weight.packets(), weight.len()));
+        assert_eq!((rays.skip[26], rays.pixel[26], rays.depth[26], rays.credit[26]), (26, 182, 1, 26));
+    }
     #[test]
     fn lanes_keep_their_vectors_across_packets_whatever_the_way_in() {
         let mut v = Vec3s::default();

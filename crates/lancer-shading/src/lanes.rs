@@ -53,6 +53,7 @@ pub(crate) fn set(mut bits: u8) -> impl Iterator<Item = usize> {
 /// hit or miss alternates would mispredict one).
 #[inline(always)]
 pub(crate) fn bits(len: usize, on: impl Fn(usize) -> bool) -> u8 {
+    debug_assert!(len <= PACKET, "{len} lanes in a group");
     (0..len).fold(0u8, |m, j| m | (u8::from(on(j)) << j))
 }
 
@@ -341,13 +342,19 @@ mod tests {
             textures: &[],
         };
         let mut hits = lancer_core::rays::Hits::default();
-        hits.reset(16);
-        let index = [0, 0, 0, 0, 0, 0, 0, 0, 2, 1, 2, 2, 0, 2, 1, 2];
+        // Thirteen lanes: the second group is cut short.
+        hits.reset(13);
+        let index = [0, 0, 0, 0, 0, 0, 0, 0, 2, 1, 2, 2, 0];
         for (lane, &i) in index.iter().enumerate() {
             hits.material[lane] = i;
             hits.object[lane] = if lane % 5 == 3 { lancer_core::rays::NO_HIT } else { 0 };
         }
-        for group in super::Group::all(&hits) {
+        let groups: Vec<_> = super::Group::all(&hits).collect();
+        assert_eq!(
+            groups.iter().map(|g| (g.base, g.len, g.hit)).collect::<Vec<_>>(),
+            [(0, 8, 0b1111_0111), (8, 5, 0b1_1110)]
+        );
+        for group in groups {
             let (value, on) = group.param(&ctx, &hits, |m| m.spec, |s| s > 0.0);
             for (j, got) in value.iter().enumerate().take(group.len) {
                 let lane = group.base + j;

@@ -27,7 +27,8 @@ pub(crate) fn visibility_system(
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         let n = hits.object.len();
         // The lanes with a hit some term reads lights on, a bit per lane of each group. (No
-        // branch per lane: a lane with no hit reads material 0's entry and drops it.)
+        // branch per lane: a lane with no hit reads whatever its material column holds, through
+        // `get`, and the hit bits drop it.)
         let mut alive = [0u8; CHUNK_LANES / PACKET];
         for (g, group) in Group::all(hits).enumerate() {
             let indices = &hits.material[group.base..group.base + group.len];
