@@ -134,6 +134,16 @@ impl Object {
         (self.object_from_world.transform_point3(o), self.object_from_world.transform_vector3(d))
     }
 
+    /// [`Object::to_object`] for eight rays at once (origins `o`, directions `d`), the same bits.
+    #[inline(always)]
+    fn to_object_lanes(&self, o: &lanes::V3, d: &lanes::V3) -> (lanes::V3, lanes::V3) {
+        if self.identity {
+            return (*o, *d);
+        }
+        let m = &self.object_from_world;
+        (lanes::linear(&m.matrix3, o, Some(Vec3::from(m.translation))), lanes::linear(&m.matrix3, d, None))
+    }
+
     /// First crossing of the world ray `o + t d` with `tmin < t < tmax` (object-space details).
     #[inline]
     pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<ShapeHit> {
@@ -330,12 +340,7 @@ impl Object {
             return None;
         };
         let (wo, wd) = (o.map(f32x8::new), d.map(f32x8::new));
-        let (oo, od) = if self.identity {
-            (wo, wd)
-        } else {
-            let m = &self.object_from_world;
-            (lanes::linear(&m.matrix3, &wo, Some(Vec3::from(m.translation))), lanes::linear(&m.matrix3, &wd, None))
-        };
+        let (oo, od) = self.to_object_lanes(&wo, &wd);
         let (oo, od) = (oo.map(f32x8::to_array), od.map(f32x8::to_array));
         // The nearest point of the tube, in f64: `p` on the line, `c` on the centre circle.
         let mut axis = 0u8;
@@ -913,13 +918,7 @@ impl Geometry {
             return None;
         }
         let (from, _) = self.spawn_packet(point, normal, error, &[object; 8], dir);
-        let (p, d) = (from.map(f32x8::new), dir.map(f32x8::new));
-        let (p, d) = if o.identity {
-            (p, d)
-        } else {
-            let m = &o.object_from_world;
-            (lanes::linear(&m.matrix3, &p, Some(Vec3::from(m.translation))), lanes::linear(&m.matrix3, &d, None))
-        };
+        let (p, d) = o.to_object_lanes(&from.map(f32x8::new), &dir.map(f32x8::new));
         // `sphere_roots`, then the farther root: where the line leaves the unit sphere.
         let dot = lanes::dot::<f32x8>;
         let a = dot(&d, &d);

@@ -61,11 +61,24 @@ impl Quartic {
     #[inline]
     fn least_t(&self, tmin: f32, tmax: f32) -> Option<f32> {
         let [a3, a2, a1, a0] = self.coefficients;
-        let within = |s: f64| {
+        least_root(a3, a2, a1, a0, self.within(tmin, tmax)).map(|s| self.t(s))
+    }
+
+    /// [`Quartic::least_t`] from the quartic's rough roots (ascending) and the first of them
+    /// already polished ([`least_root_from`]).
+    #[inline]
+    fn least_t_from(&self, rough: &[f64], first: Option<f64>, tmin: f32, tmax: f32) -> Option<f32> {
+        let [a3, a2, a1, a0] = self.coefficients;
+        least_root_from(rough, first, a3, a2, a1, a0, self.within(tmin, tmax)).map(|s| self.t(s))
+    }
+
+    /// Whether the root `s` is within `tmin < t < tmax` along the caller's line.
+    #[inline]
+    fn within(&self, tmin: f32, tmax: f32) -> impl Fn(f64) -> bool + '_ {
+        move |s| {
             let t = self.t(s);
             t > tmin && t < tmax
-        };
-        least_root(a3, a2, a1, a0, within).map(|s| self.t(s))
+        }
     }
 
     /// The quartic of the line `o + t d` and the torus of tube radius `minor`; `None` when the
@@ -274,13 +287,8 @@ pub fn first_t4(minor: f32, o: &[Vec3; 4], d: &[Vec3; 4], tmax: &[f32; 4], n: us
     let first = polish4(f64x4::new(starts), c4[0], c4[1], c4[2], c4[3]).to_array();
     for k in (0..n).filter(|k| live >> k & 1 == 1) {
         let q = Quartic { coefficients: [c[0][k], c[1][k], c[2][k], c[3][k]], shift: shift[k], len: len[k] };
-        let within = |s: f64| {
-            let t = q.t(s);
-            t > 0.0 && t < tmax[k]
-        };
-        let [a3, a2, a1, a0] = q.coefficients;
         let polished = (!rough[k].is_empty()).then_some(first[k]);
-        out[k] = least_root_from(&rough[k], polished, a3, a2, a1, a0, within).map(|s| q.t(s));
+        out[k] = q.least_t_from(&rough[k], polished, 0.0, tmax[k]);
     }
     out
 }
