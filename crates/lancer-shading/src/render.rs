@@ -102,10 +102,10 @@ pub fn render(scene: &Scene, pipeline: &Pipeline, options: RenderOptions<'_>) ->
 ///
 /// The beauty image (and the layers, when kept) are allocated once and each tile writes its own
 /// pixels of them (through its band's rows: a row of tiles is a contiguous run of each image),
-/// the beauty image as the tile's layers summed in layer order. Each run of tiles rayon hands a
-/// thread keeps its scratch buffers (the tile's hecs world, chunk columns, the next generation's
-/// rays, the tile's accumulators) from tile to tile, so the steady state allocates nothing (a
-/// run taken from another thread's share starts new ones).
+/// the beauty image as the tile's layers summed in layer order. One worker per thread takes
+/// tiles one at a time and keeps its scratch buffers (the tile's hecs world, chunk columns, the
+/// next generation's rays, the tile's accumulators) from tile to tile, so the steady state
+/// allocates nothing.
 pub fn render_prepared(
     prepared: &Prepared,
     camera: &Camera,
@@ -150,10 +150,9 @@ pub fn render_prepared(
     if let Some((index, count)) = options.part {
         bands.retain(|b| *b as u32 % count.max(1) == index);
     }
-    // One contiguous run of bands per thread (rayon splits the list in halves, so the first
-    // split falls between runs), each run in a spread order: the tiles done at any moment
-    // sample the whole image, and until one thread runs out of work and takes tiles from the
-    // other's run, no two threads fault in pages of the same part of a layer at once
+    // One contiguous run of bands per thread, each run in a spread order: the tiles done at any
+    // moment sample the whole image, and until one thread runs out of work and takes tiles
+    // from the other's run, no two threads fault in pages of the same part of a layer at once
     // (interleaving bands across threads cost 5 % at 2 threads, in page-table locks).
     let runs = rayon::current_num_threads().clamp(1, bands_count.max(1));
     let run_of = |b: usize| b * runs / bands_count;
@@ -163,54 +162,88 @@ pub fn render_prepared(
         let r = run_of(*b);
         (r, ranks[r][*b - run_start(r)])
     });
-    // The unit of work is a tile, not a band: a thread that has finished its run takes single
-    // tiles from the other's, so neither waits long for the last band (the anchor cut to 80
-    // rows, five bands, renders on 2 threads in 0.0095 s against 0.0110 s by bands).
+    // The unit of work is a tile, not a band: a worker that has finished its run takes single
+    // tiles from the back of the fullest other run, so neither waits long for the last band
+    // (the anchor cut to 80 rows, five bands, renders on 2 threads in 0.0095 s against 0.0110 s
+    // by bands).
     let tiles: Vec<(usize, u32)> =
         bands.iter().flat_map(|&b| (0..width).step_by(TILE_WIDTH as usize).map(move |x0| (b, x0))).collect();
     let tiles_count = tiles.len();
+    let queues: Vec<std::sync::Mutex<std::ops::Range<usize>>> = (0..runs)
+        .map(|r| {
+            let first = tiles.partition_point(|t| run_of(t.0) < r);
+            let end = tiles.partition_point(|t| run_of(t.0) <= r);
+            std::sync::Mutex::new(first..end)
+        })
+        .collect();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let stats = tiles
-        .into_par_iter()
-        .fold(
-            || (Scratch::new(pipeline), RenderStats::default()),
-            |(mut scratch, mut stats), (band, x0)| {
-                if options.cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {
-                    return (scratch, stats);
+    // One worker per run, each with its own scratch buffers for the whole render (rayon's own
+    // splitting of a tile list made a new scratch at every steal: 28 of them in a 2-thread
+    // render of the anchor, each growing its buffers and faulting in their pages afresh).
+    let worker = |me: usize| {
+        let mut scratch = Scratch::new(pipeline);
+        let mut stats = RenderStats::default();
+        while let Some(i) = next_tile(&queues, me) {
+            if options.cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {
+                break;
+            }
+            let (band, x0) = tiles[i];
+            let y0 = band as u32 * TILE;
+            let tile = Tile { x0, y0, w: TILE_WIDTH.min(width - x0), h: TILE.min(height - y0) };
+            render_tile(&ctx, &lit, camera, image, pipeline, tile, &mut scratch, None, options.timing, &mut stats);
+            let mut lap = Lap::new(options.timing);
+            // The tile's pixels into the band's rows of every layer kept, and their sum, in
+            // layer order, into the beauty image.
+            let mut guard = rows[band].lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let (sum, out) = &mut *guard;
+            for row in 0..tile.h as usize {
+                let (at, from) = (row * width as usize + x0 as usize, row * tile.w as usize);
+                let span = from..from + tile.w as usize;
+                for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
+                    layer[at..at + tile.w as usize].copy_from_slice(&acc[span.clone()]);
                 }
-                let y0 = band as u32 * TILE;
-                let tile = Tile { x0, y0, w: TILE_WIDTH.min(width - x0), h: TILE.min(height - y0) };
-                render_tile(&ctx, &lit, camera, image, pipeline, tile, &mut scratch, None, options.timing, &mut stats);
-                let mut lap = Lap::new(options.timing);
-                // The tile's pixels into the band's rows of every layer kept, and their sum,
-                // in layer order, into the beauty image.
-                let mut guard = rows[band].lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                let (sum, out) = &mut *guard;
-                for row in 0..tile.h as usize {
-                    let (at, from) = (row * width as usize + x0 as usize, row * tile.w as usize);
-                    let span = from..from + tile.w as usize;
-                    for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
-                        layer[at..at + tile.w as usize].copy_from_slice(&acc[span.clone()]);
-                    }
-                    for (i, px) in sum[at..at + tile.w as usize].iter_mut().enumerate() {
-                        *px = scratch.accum.iter().fold(Vec3::ZERO, |s, acc| s + acc[from + i]);
-                    }
+                for (i, px) in sum[at..at + tile.w as usize].iter_mut().enumerate() {
+                    *px = scratch.accum.iter().fold(Vec3::ZERO, |s, acc| s + acc[from + i]);
                 }
-                drop(guard);
-                lap.charge(&mut stats.times.chunks);
-                if let Some(progress) = options.progress {
-                    progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, tiles_count);
-                }
-                (scratch, stats)
-            },
-        )
-        .map(|(_, stats)| stats)
-        .reduce(RenderStats::default, |mut a, b| {
-            a += b;
-            a
-        });
+            }
+            drop(guard);
+            lap.charge(&mut stats.times.chunks);
+            if let Some(progress) = options.progress {
+                progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, tiles_count);
+            }
+        }
+        stats
+    };
+    let stats = (0..runs).into_par_iter().map(worker).reduce(RenderStats::default, |mut a, b| {
+        a += b;
+        a
+    });
     drop(rows);
     Frame { width, height, layers, beauty, stats }
+}
+
+/// The next tile for worker `me`: the front of its own run (`queues[me]`, indices into the tile
+/// list), or once that is empty the back of the fullest other run; `None` when every run is
+/// empty. Runs only shrink, so a run seen empty stays empty.
+fn next_tile(queues: &[std::sync::Mutex<std::ops::Range<usize>>], me: usize) -> Option<usize> {
+    if let Some(i) = lock(&queues[me]).next() {
+        return Some(i);
+    }
+    loop {
+        let (fullest, left) = queues.iter().map(|q| (q, lock(q).len())).max_by_key(|&(_, left)| left)?;
+        if left == 0 {
+            return None;
+        }
+        if let Some(i) = lock(fullest).next_back() {
+            return Some(i);
+        }
+    }
+}
+
+/// Locks one run of [`next_tile`]. A range of indices is never left half-updated, so a panic
+/// elsewhere cannot spoil it.
+fn lock(q: &std::sync::Mutex<std::ops::Range<usize>>) -> std::sync::MutexGuard<'_, std::ops::Range<usize>> {
+    q.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// A band of tiles' rows of the beauty image, and of each layer kept.
@@ -607,7 +640,7 @@ fn background_system(world: &hecs::World, background: Vec3, background_layer: us
 
 #[cfg(test)]
 mod tests {
-    use super::{CELL, TILE, TILE_WIDTH, WAVE, cell_order, sample_offset, spread_order, waves};
+    use super::{CELL, TILE, TILE_WIDTH, WAVE, cell_order, next_tile, sample_offset, spread_order, waves};
 
     #[test]
     fn waves_cover_every_sample_once_and_keep_a_pixels_samples_together() {
@@ -646,6 +679,31 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_worker_takes_its_own_run_first_then_the_back_of_the_fullest_other() {
+        let queues: Vec<_> = [0..3, 3..10, 10..12].into_iter().map(std::sync::Mutex::new).collect();
+        let mut taken = Vec::new();
+        // Worker 0 empties its run from the front, then takes from the back of run 1 (7 left)
+        // until run 1 is no fuller than run 2.
+        for _ in 0..3 {
+            taken.push(next_tile(&queues, 0));
+        }
+        assert_eq!(taken, [Some(0), Some(1), Some(2)]);
+        assert_eq!(next_tile(&queues, 0), Some(9));
+        // Worker 2 still starts at its run's front.
+        assert_eq!(next_tile(&queues, 2), Some(10));
+        // Every index is handed out once, whatever worker asks.
+        let mut all = vec![0, 1, 2, 9, 10];
+        let mut who = 0;
+        while let Some(i) = next_tile(&queues, who % 3) {
+            all.push(i);
+            who += 1;
+        }
+        all.sort();
+        assert_eq!(all, (0..12).collect::<Vec<_>>());
+        assert!((0..3).all(|me| next_tile(&queues, me).is_none()), "stays empty");
     }
 
     #[test]
