@@ -486,6 +486,11 @@ pub(crate) fn render_recording(
     // Check every output path before the (long) render, so a typo costs nothing. A part's
     // output is a part file whatever its name.
     let format = if args.tile.is_some() { Format::Exr } else { Format::of(&args.output)? };
+    if let Some(folder) = args.output.parent().filter(|p| !p.as_os_str().is_empty())
+        && !folder.is_dir()
+    {
+        bail!("cannot write {}: there is no folder {}", args.output.display(), folder.display());
+    }
     if args.tile.is_some() && args.aov.is_some() {
         bail!("with --tile, the per-term images come from the merge: lancer merge PARTS... --aov DIR");
     }
@@ -568,29 +573,37 @@ pub(crate) fn render_recording(
     };
     let beauty = &frame.beauty;
     pool.install(|| -> Result<()> {
-        match args.tile {
-            Some((index, count)) => {
-                let header = crate::part::Header {
-                    identity: format!("{identity:016x}"),
-                    scene: name.clone(),
-                    width: frame.width,
-                    height: frame.height,
-                    samples: scene.image.samples.max(1),
-                    model: crate::stats::effective_model(&pipeline, &scene.image),
-                    index,
-                    count,
-                    band_rows: lancer_shading::TILE,
-                    layers: frame.layers.iter().map(|l| l.name.clone()).collect(),
-                    rays: [frame.stats.camera_rays, frame.stats.secondary_rays, frame.stats.shadow_rays],
-                    seconds: elapsed.as_secs_f64(),
-                };
-                crate::part::write(&args.output, &header, &frame)?;
+        // The image and the per-term images side by side: the image's encoding is one job
+        // among the others on the worker threads.
+        let image = || -> Result<()> {
+            match args.tile {
+                Some((index, count)) => {
+                    let header = crate::part::Header {
+                        identity: format!("{identity:016x}"),
+                        scene: name.clone(),
+                        width: frame.width,
+                        height: frame.height,
+                        samples: scene.image.samples.max(1),
+                        model: crate::stats::effective_model(&pipeline, &scene.image),
+                        index,
+                        count,
+                        band_rows: lancer_shading::TILE,
+                        layers: frame.layers.iter().map(|l| l.name.clone()).collect(),
+                        rays: [frame.stats.camera_rays, frame.stats.secondary_rays, frame.stats.shadow_rays],
+                        seconds: elapsed.as_secs_f64(),
+                    };
+                    crate::part::write(&args.output, &header, &frame)
+                }
+                None => format.write(&args.output, frame.width, frame.height, beauty),
             }
-            None => format.write(&args.output, frame.width, frame.height, beauty)?,
-        }
-        if let Some(dir) = &args.aov {
-            write_aovs(dir, &frame, beauty, args.aov_format, &|files| run.json(files))?;
-        }
+        };
+        let aovs = || match &args.aov {
+            Some(dir) => write_aovs(dir, &frame, beauty, args.aov_format, &|files| run.json(files)),
+            None => Ok(()),
+        };
+        let (image, aovs) = rayon::join(image, aovs);
+        image?;
+        aovs?;
         if let Some(path) = &args.stats_json {
             crate::output::write_atomic(path, run.json(&[]).as_bytes())
                 .with_context(|| format!("writing {}", path.display()))?;
@@ -787,8 +800,10 @@ fn write_aovs(
         AovFormat::Png => &[Format::Png][..],
         AovFormat::Both => &[Format::Exr, Format::Png][..],
     };
-    // Every image and format on the worker threads at once; each file is written whole or not
-    // at all.
+    // Every image and format encoded on the worker threads, two at a time (each encoding
+    // holds its file's compressed lines in memory); each file then waits for the disk on a
+    // thread of its own, which allocates nothing, while the workers encode the next ones.
+    // Each file is written whole or not at all.
     use rayon::prelude::*;
     let jobs: Vec<(&str, &[glam::Vec3], Format)> =
         images.iter().flat_map(|&(name, px)| formats.iter().map(move |&f| (name, px, f))).collect();
@@ -796,8 +811,23 @@ fn write_aovs(
         |name: &str, format: Format| format!("{name}.{}", if format == Format::Exr { "exr" } else { "png" });
     let files: Vec<String> = jobs.iter().map(|&(name, _, format)| file_name(name, format)).collect();
     let earlier = earlier_files(&dir.join(MANIFEST));
-    jobs.into_par_iter().try_for_each(|(name, pixels, format)| {
-        format.write(&dir.join(file_name(name, format)), frame.width, frame.height, pixels)
+    std::thread::scope(|s| -> Result<()> {
+        let syncing = std::sync::Mutex::new(Vec::new());
+        let encoded = jobs.into_par_iter().try_for_each(|(name, pixels, format)| -> Result<()> {
+            let pending = format.begin_write(&dir.join(file_name(name, format)), frame.width, frame.height, pixels)?;
+            let finishing = s.spawn(move || pending.finish());
+            syncing.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(finishing);
+            Ok(())
+        });
+        // Every file already encoded is put in place (or removed) before any error is told.
+        let finished: Vec<Result<()>> = syncing
+            .into_inner()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| bail!("a thread writing an image panicked")))
+            .collect();
+        encoded?;
+        finished.into_iter().collect()
     })?;
     for stale in earlier.iter().filter(|f| !files.contains(f)) {
         // Only plain names a manifest of ours could list: never a path out of the folder.

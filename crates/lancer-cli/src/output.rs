@@ -287,7 +287,13 @@ impl Format {
     /// Writes a linear image in this format to `path`, whole or not at all, encoding straight
     /// into the file (no copy of the encoded image in memory).
     pub fn write(self, path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<()> {
-        atomically(path, |file| {
+        self.begin_write(path, width, height, pixels)?.finish()
+    }
+
+    /// The first half of [`Format::write`]: the image encoded into a temporary file beside
+    /// `path`, which [`Pending::finish`] puts in place.
+    pub fn begin_write(self, path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<Pending> {
+        Pending::begin(path, |file| {
             let mut out = BufWriter::new(file);
             match self {
                 Format::Png => write_png(&mut out, width, height, pixels)?,
@@ -337,27 +343,65 @@ pub fn remove_temporaries() {
 /// Runs `fill` on a temporary file beside `path`, flushes it to disk and renames it to `path`;
 /// on any error the temporary file is removed and `path` is untouched.
 fn atomically(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<()> {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
-    let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
-    let track = |add: bool| {
-        let mut list = TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner());
-        if add { list.push(tmp.clone()) } else { list.retain(|p| *p != tmp) }
-    };
-    track(true);
-    let result = (|| -> Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        fill(&mut f)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)?;
-        Ok(())
-    })();
-    track(false);
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e).with_context(|| format!("writing {}", path.display()));
+    Pending::begin(path, fill)?.finish()
+}
+
+/// A file written in full to a temporary file beside its path, not yet flushed to disk nor
+/// renamed into place: [`Pending::finish`] does both (and can run on another thread, so that
+/// waiting for the disk does not hold up encoding the next file). Dropped unfinished, it
+/// removes its temporary file and leaves the path untouched.
+pub struct Pending {
+    file: Option<std::fs::File>,
+    tmp: PathBuf,
+    path: PathBuf,
+}
+
+impl Pending {
+    /// Runs `fill` on a new temporary file beside `path`.
+    fn begin(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<Pending> {
+        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
+        let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+        TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
+        // From here on, dropping `pending` (on an error) removes the temporary file.
+        let mut pending = Pending { file: None, tmp, path: path.to_path_buf() };
+        let result = (|| -> Result<()> {
+            let mut f = std::fs::File::create(&pending.tmp)?;
+            fill(&mut f)?;
+            pending.file = Some(f);
+            Ok(())
+        })();
+        result.with_context(|| format!("writing {}", path.display()))?;
+        Ok(pending)
     }
-    Ok(())
+
+    /// Flushes the file to disk and renames it to its path.
+    pub fn finish(mut self) -> Result<()> {
+        let file = self.file.take().expect("a pending file is filled");
+        let result = file.sync_all().and_then(|()| {
+            drop(file);
+            std::fs::rename(&self.tmp, &self.path)
+        });
+        result.with_context(|| format!("writing {}", self.path.display()))?;
+        // In place: nothing left for the drop to remove.
+        self.untrack();
+        self.tmp = PathBuf::new();
+        Ok(())
+    }
+
+    fn untrack(&self) {
+        TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner()).retain(|p| *p != self.tmp);
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if !self.tmp.as_os_str().is_empty() {
+            self.file = None;
+            let _ = std::fs::remove_file(&self.tmp);
+            self.untrack();
+        }
+    }
 }
 
 #[cfg(test)]
@@ -488,6 +532,36 @@ mod tests {
                 assert!(ours == exr_by_the_crate(w, h, px), "{w}x{h}, pattern {k}: the files differ");
             }
         }
+    }
+
+    #[test]
+    fn a_pending_file_appears_only_when_finished_and_leaves_nothing_when_dropped() {
+        let folder = tempfile::tempdir().unwrap();
+        let dir = folder.path();
+        let listing = || {
+            let mut names: Vec<String> = std::fs::read_dir(dir)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            names.sort();
+            names
+        };
+        let path = dir.join("a.bin");
+        let pending = Pending::begin(&path, |f| Ok(f.write_all(b"abc")?)).unwrap();
+        assert!(!path.exists(), "not in place before finish");
+        assert_eq!(listing().len(), 1, "one temporary file: {:?}", listing());
+        pending.finish().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"abc");
+        assert_eq!(listing(), ["a.bin"]);
+        // Dropped unfinished: the old file stays, the temporary goes.
+        drop(Pending::begin(&path, |f| Ok(f.write_all(b"new")?)).unwrap());
+        assert_eq!(std::fs::read(&path).unwrap(), b"abc");
+        assert_eq!(listing(), ["a.bin"]);
+        // A failing fill: an error naming the file, nothing left behind.
+        let err = Pending::begin(&dir.join("b.bin"), |_| bail!("no room")).err().unwrap();
+        assert!(format!("{err:#}").contains("b.bin") && format!("{err:#}").contains("no room"), "{err:#}");
+        assert_eq!(listing(), ["a.bin"]);
+        assert!(TEMPORARIES.lock().unwrap().iter().all(|t| !t.starts_with(dir)), "none still tracked");
     }
 
     #[test]

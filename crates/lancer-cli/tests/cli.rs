@@ -139,6 +139,12 @@ fn bad_files_and_flags_are_clear_errors() {
 
     let o = lancer(dir.path(), &["render", "--model", "nope.toml"]);
     assert!(stderr(&o).contains("reading model nope.toml"));
+
+    // A typo in the image's folder is found before the render, and the per-term images are
+    // not written without their image.
+    let o = lancer(dir.path(), &["render", "--width", "16", "-o", "nowhere/out.png", "--aov", "aov"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("cannot write nowhere/out.png: there is no folder nowhere"), "{}", stderr(&o));
     assert_eq!(files(dir.path()), Vec::<String>::new());
 }
 
