@@ -202,8 +202,14 @@ pub fn render_prepared(
                 for (layer, acc) in out.iter_mut().zip(&scratch.accum) {
                     layer[at..at + tile.w as usize].copy_from_slice(&acc[span.clone()]);
                 }
-                for (i, px) in sum[at..at + tile.w as usize].iter_mut().enumerate() {
-                    *px = scratch.accum.iter().fold(Vec3::ZERO, |s, acc| s + acc[from + i]);
+                // The layers added one after the other, a row at a time as plain floats (the
+                // same sums, in the same order, as pixel by pixel: `0 + l0 + l1 + ...`).
+                let sum: &mut [f32] = bytemuck::cast_slice_mut(&mut sum[at..at + tile.w as usize]);
+                sum.fill(0.0);
+                for acc in &scratch.accum {
+                    for (s, a) in sum.iter_mut().zip(bytemuck::cast_slice::<Vec3, f32>(&acc[span.clone()])) {
+                        *s += *a;
+                    }
                 }
             }
             drop(guard);
