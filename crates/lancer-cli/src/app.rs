@@ -486,8 +486,10 @@ pub(crate) fn render_recording(
     // Check every output path before the (long) render, so a typo costs nothing. A part's
     // output is a part file whatever its name.
     let format = if args.tile.is_some() { Format::Exr } else { Format::of(&args.output)? };
+    // (The per-term images' folder, made before the render, may hold the image.)
     if let Some(folder) = args.output.parent().filter(|p| !p.as_os_str().is_empty())
         && !folder.is_dir()
+        && args.aov.as_deref() != Some(folder)
     {
         bail!("cannot write {}: there is no folder {}", args.output.display(), folder.display());
     }
@@ -573,8 +575,8 @@ pub(crate) fn render_recording(
     };
     let beauty = &frame.beauty;
     pool.install(|| -> Result<()> {
-        // The image and the per-term images side by side: the image's encoding is one job
-        // among the others on the worker threads.
+        // The image first: when it cannot be written, the per-term images folder is left as
+        // it was.
         let image = || -> Result<()> {
             match args.tile {
                 Some((index, count)) => {
@@ -601,9 +603,8 @@ pub(crate) fn render_recording(
             Some(dir) => write_aovs(dir, &frame, beauty, args.aov_format, &|files| run.json(files)),
             None => Ok(()),
         };
-        let (image, aovs) = rayon::join(image, aovs);
-        image?;
-        aovs?;
+        image()?;
+        aovs()?;
         if let Some(path) = &args.stats_json {
             crate::output::write_atomic(path, run.json(&[]).as_bytes())
                 .with_context(|| format!("writing {}", path.display()))?;
@@ -800,10 +801,10 @@ fn write_aovs(
         AovFormat::Png => &[Format::Png][..],
         AovFormat::Both => &[Format::Exr, Format::Png][..],
     };
-    // Every image and format encoded on the worker threads, two at a time (each encoding
-    // holds its file's compressed lines in memory); each file then waits for the disk on a
-    // thread of its own, which allocates nothing, while the workers encode the next ones.
-    // Each file is written whole or not at all.
+    // Every image and format encoded on the worker threads, one per worker at a time (each
+    // encoding holds its file's compressed lines in memory); each file then waits for the disk
+    // on a short-lived thread of its own while the workers encode the next ones. Each file is
+    // written whole or not at all.
     use rayon::prelude::*;
     let jobs: Vec<(&str, &[glam::Vec3], Format)> =
         images.iter().flat_map(|&(name, px)| formats.iter().map(move |&f| (name, px, f))).collect();
@@ -815,7 +816,12 @@ fn write_aovs(
         let syncing = std::sync::Mutex::new(Vec::new());
         let encoded = jobs.into_par_iter().try_for_each(|(name, pixels, format)| -> Result<()> {
             let pending = format.begin_write(&dir.join(file_name(name, format)), frame.width, frame.height, pixels)?;
-            let finishing = s.spawn(move || pending.finish());
+            // A thread refused is an error (the unfinished file's temporary is removed).
+            let finishing = std::thread::Builder::new().spawn_scoped(s, move || pending.finish());
+            let finishing = match finishing {
+                Ok(handle) => handle,
+                Err(e) => bail!("starting a thread to write an image: {e}"),
+            };
             syncing.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(finishing);
             Ok(())
         });

@@ -361,7 +361,11 @@ impl Pending {
     fn begin(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<Pending> {
         let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
-        let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+        // A number of its own, so two writers of one path at once (`-o` into the `--aov`
+        // folder, say) never share a temporary file.
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let tmp: PathBuf = dir.join(format!(".{}.{}.{k}.tmp", name.to_string_lossy(), std::process::id()));
         TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
         // From here on, dropping `pending` (on an error) removes the temporary file.
         let mut pending = Pending { file: None, tmp, path: path.to_path_buf() };
@@ -556,6 +560,16 @@ mod tests {
         // Dropped unfinished: the old file stays, the temporary goes.
         drop(Pending::begin(&path, |f| Ok(f.write_all(b"new")?)).unwrap());
         assert_eq!(std::fs::read(&path).unwrap(), b"abc");
+        assert_eq!(listing(), ["a.bin"]);
+        // Two writers of one path at once: a temporary file each, the last finished wins.
+        let (one, two) = (
+            Pending::begin(&path, |f| Ok(f.write_all(b"one")?)).unwrap(),
+            Pending::begin(&path, |f| Ok(f.write_all(b"two")?)).unwrap(),
+        );
+        assert_eq!(listing().len(), 3, "{:?}", listing());
+        one.finish().unwrap();
+        two.finish().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"two");
         assert_eq!(listing(), ["a.bin"]);
         // A failing fill: an error naming the file, nothing left behind.
         let err = Pending::begin(&dir.join("b.bin"), |_| bail!("no room")).err().unwrap();

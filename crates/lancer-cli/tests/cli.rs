@@ -59,6 +59,16 @@ fn aov_writes_every_term_and_beauty_and_the_exrs_sum_to_beauty() {
 }
 
 #[test]
+fn the_image_may_go_into_the_new_aov_folder_even_under_the_beauty_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["render", "--width", "32", "-q", "-o", "aov/beauty.exr", "--aov", "aov", "--aov-format", "exr"];
+    let o = lancer(dir.path(), &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let names = files(&dir.path().join("aov"));
+    assert!(names.contains(&"beauty.exr".to_owned()) && names.iter().all(|n| !n.ends_with(".tmp")), "{names:?}");
+}
+
+#[test]
 fn one_and_two_threads_write_identical_bytes() {
     let dir = tempfile::tempdir().unwrap();
     for t in ["1", "2"] {
