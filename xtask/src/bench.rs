@@ -74,6 +74,11 @@ fn povray_run(pov: &Path, w: u32, h: u32, threads: u32) -> Result<f64> {
     secs.with_context(|| format!("could not read povray's trace time from `{line}`"))
 }
 
+/// The smallest of `v` (infinity for none).
+fn least(v: impl IntoIterator<Item = f64>) -> f64 {
+    v.into_iter().fold(f64::INFINITY, f64::min)
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -253,8 +258,7 @@ pub fn run(args: &[String]) -> Result<()> {
     // The fastest run of each thread count, for the speed-up: the host only ever slows a run
     // down, and a 2-thread run is slowed when either of its cores is, so its median takes in
     // more of the host's noise than a 1-thread run's does.
-    let fastest: Vec<f64> =
-        lancer_runs.iter().map(|r| r.iter().map(|r| r.secs).fold(f64::INFINITY, f64::min)).collect();
+    let fastest: Vec<f64> = lancer_runs.iter().map(|r| least(r.iter().map(|r| r.secs))).collect();
     for (k, threads) in [1u32, 2].into_iter().enumerate() {
         let r = median_by_secs(std::mem::take(&mut lancer_runs[k]));
         let pov_t = has_pov.then(|| median(std::mem::take(&mut pov_runs[k])));
@@ -280,7 +284,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let (one, two) = (by_threads[0].0, by_threads[1].0);
     let scaling = fastest[0] / fastest[1];
     let of_medians = one.secs / two.secs;
-    let side = 2.0 * fastest[0] / side_by_side.iter().copied().fold(f64::INFINITY, f64::min);
+    let side = 2.0 * fastest[0] / least(side_by_side);
     println!(
         "1 -> 2 threads: {scaling:.2}x, fastest run against fastest run of {rounds} each ({of_medians:.2}x on the medians); \
          for reference, two 1-thread renders at once, as separate processes: {side:.2}x one alone"

@@ -577,34 +577,29 @@ pub(crate) fn render_recording(
     pool.install(|| -> Result<()> {
         // The image first: when it cannot be written, the per-term images folder is left as
         // it was.
-        let image = || -> Result<()> {
-            match args.tile {
-                Some((index, count)) => {
-                    let header = crate::part::Header {
-                        identity: format!("{identity:016x}"),
-                        scene: name.clone(),
-                        width: frame.width,
-                        height: frame.height,
-                        samples: scene.image.samples.max(1),
-                        model: crate::stats::effective_model(&pipeline, &scene.image),
-                        index,
-                        count,
-                        band_rows: lancer_shading::TILE,
-                        layers: frame.layers.iter().map(|l| l.name.clone()).collect(),
-                        rays: [frame.stats.camera_rays, frame.stats.secondary_rays, frame.stats.shadow_rays],
-                        seconds: elapsed.as_secs_f64(),
-                    };
-                    crate::part::write(&args.output, &header, &frame)
-                }
-                None => format.write(&args.output, frame.width, frame.height, beauty),
+        match args.tile {
+            Some((index, count)) => {
+                let header = crate::part::Header {
+                    identity: format!("{identity:016x}"),
+                    scene: name.clone(),
+                    width: frame.width,
+                    height: frame.height,
+                    samples: scene.image.samples.max(1),
+                    model: crate::stats::effective_model(&pipeline, &scene.image),
+                    index,
+                    count,
+                    band_rows: lancer_shading::TILE,
+                    layers: frame.layers.iter().map(|l| l.name.clone()).collect(),
+                    rays: [frame.stats.camera_rays, frame.stats.secondary_rays, frame.stats.shadow_rays],
+                    seconds: elapsed.as_secs_f64(),
+                };
+                crate::part::write(&args.output, &header, &frame)?;
             }
-        };
-        let aovs = || match &args.aov {
-            Some(dir) => write_aovs(dir, &frame, beauty, args.aov_format, &|files| run.json(files)),
-            None => Ok(()),
-        };
-        image()?;
-        aovs()?;
+            None => format.write(&args.output, frame.width, frame.height, beauty)?,
+        }
+        if let Some(dir) = &args.aov {
+            write_aovs(dir, &frame, beauty, args.aov_format, &|files| run.json(files))?;
+        }
         if let Some(path) = &args.stats_json {
             crate::output::write_atomic(path, run.json(&[]).as_bytes())
                 .with_context(|| format!("writing {}", path.display()))?;
@@ -813,26 +808,22 @@ fn write_aovs(
     let files: Vec<String> = jobs.iter().map(|&(name, _, format)| file_name(name, format)).collect();
     let earlier = earlier_files(&dir.join(MANIFEST));
     std::thread::scope(|s| -> Result<()> {
-        let syncing = std::sync::Mutex::new(Vec::new());
-        let encoded = jobs.into_par_iter().try_for_each(|(name, pixels, format)| -> Result<()> {
-            let pending = format.begin_write(&dir.join(file_name(name, format)), frame.width, frame.height, pixels)?;
-            // A thread refused is an error (the unfinished file's temporary is removed).
-            let finishing = std::thread::Builder::new().spawn_scoped(s, move || pending.finish());
-            let finishing = match finishing {
-                Ok(handle) => handle,
-                Err(e) => bail!("starting a thread to write an image: {e}"),
-            };
-            syncing.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(finishing);
-            Ok(())
-        });
-        // Every file already encoded is put in place (or removed) before any error is told.
-        let finished: Vec<Result<()>> = syncing
-            .into_inner()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|_| bail!("a thread writing an image panicked")))
+        let started: Vec<Result<_>> = jobs
+            .into_par_iter()
+            .map(|(name, pixels, format)| {
+                let pending =
+                    format.begin_write(&dir.join(file_name(name, format)), frame.width, frame.height, pixels)?;
+                // A thread refused is an error (the unfinished file's temporary is removed).
+                std::thread::Builder::new()
+                    .spawn_scoped(s, move || pending.finish())
+                    .context("starting a thread to write an image")
+            })
             .collect();
-        encoded?;
+        // Every file encoded is put in place (or removed) before any error is told.
+        let finished: Vec<Result<()>> = started
+            .into_iter()
+            .map(|h| h?.join().unwrap_or_else(|_| bail!("a thread writing an image panicked")))
+            .collect();
         finished.into_iter().collect()
     })?;
     for stale in earlier.iter().filter(|f| !files.contains(f)) {
