@@ -2,7 +2,6 @@
 //! writing images. [`main_with`] runs it with any registry, so a crate that registers its own
 //! terms gets the whole command line for free.
 
-use std::hash::Hasher;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -234,14 +233,7 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 /// Runs the `lancer` command line (`std::env::args`) with `registry`'s terms and shadow models;
 /// errors are printed on stderr. Call it from `main` after registering your own terms.
 pub fn main_with(registry: Registry) -> ExitCode {
-    // Ctrl-C: stop at once, leaving no temporary file behind (finished files are whole: they
-    // are renamed into place only once written). A second handler cannot be set (a host
-    // program may have its own): then the default behaviour stays.
-    let _ = ctrlc::set_handler(|| {
-        crate::output::remove_temporaries();
-        eprintln!("interrupted");
-        std::process::exit(130);
-    });
+    stop_cleanly_on_signals();
     match run(Cli::parse(), &registry) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -249,6 +241,40 @@ pub fn main_with(registry: Registry) -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// Ctrl-C (SIGINT), SIGTERM and SIGHUP (what `timeout`, Slurm's `scancel` and Kubernetes send):
+/// stop at once, leaving no temporary file and no output folder this run created behind
+/// (finished files are whole: they are renamed into place only once written), and exit with
+/// 128 + the signal's number, as a shell reports it (130, 143, 129).
+#[cfg(unix)]
+fn stop_cleanly_on_signals() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    // When the handlers cannot be set, the default behaviour stays.
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else { return };
+    let _ = std::thread::Builder::new().name("signals".into()).spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            crate::output::remove_temporaries();
+            let name = match signal {
+                SIGINT => "interrupted",
+                SIGTERM => "stopped (SIGTERM)",
+                _ => "stopped (SIGHUP)",
+            };
+            eprintln!("{name}; no partial output left");
+            std::process::exit(128 + signal);
+        }
+    });
+}
+
+/// Ctrl-C: stop at once, leaving no temporary file behind. A second handler cannot be set (a
+/// host program may have its own): then the default behaviour stays.
+#[cfg(not(unix))]
+fn stop_cleanly_on_signals() {
+    let _ = ctrlc::set_handler(|| {
+        crate::output::remove_temporaries();
+        eprintln!("interrupted; no partial output left");
+        std::process::exit(130);
+    });
 }
 
 fn run(cli: Cli, registry: &Registry) -> Result<()> {
@@ -298,9 +324,9 @@ struct Loaded {
     warnings: Vec<lancer_scene::Warning>,
     /// Where the scene's parts are in its file.
     places: lancer_scene::Places,
-    /// A fingerprint of everything the render depends on (the scene, model and files read,
-    /// the effective model and image settings, Lancer's version): parts of one render share it.
-    identity: u64,
+    /// Fingerprints of everything the render depends on (the scene, model and files read,
+    /// the effective model and image settings, Lancer's version): parts of one render share them.
+    identity: crate::part::Sources,
     /// How the scene is named in messages.
     name: String,
     /// The scene file's text as it was read (what the studio's Save edits).
@@ -324,8 +350,11 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
     };
     // Files a scene refers to (textures) are relative to the scene file's folder.
     let base = args.scene.as_ref().and_then(|p| p.parent()).map(Path::to_path_buf).unwrap_or_default();
-    let fingerprint = std::cell::RefCell::new(fnv::FnvHasher::default());
-    fingerprint.borrow_mut().write(src.as_bytes());
+    let sources = std::cell::RefCell::new(crate::part::Sources {
+        scene: crate::part::digest(src.as_bytes()),
+        version: env!("CARGO_PKG_VERSION").to_owned(),
+        ..Default::default()
+    });
     let resolve = |rel: &str| {
         let path = base.join(rel);
         if args.confined {
@@ -341,9 +370,7 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
         let bytes = read_bytes(&path, "file", args.max_file_size)?;
         // Only a part of a render needs it: hashing a large mesh byte by byte is not free.
         if args.fingerprint {
-            let mut f = fingerprint.borrow_mut();
-            f.write(rel.as_bytes());
-            f.write(&bytes);
+            sources.borrow_mut().files.push((rel.to_owned(), crate::part::digest(&bytes)));
         }
         Ok(bytes)
     };
@@ -355,7 +382,7 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
     let mut pipeline = match &args.model {
         Some(p) => {
             let text = read(p, "model", args.max_file_size)?;
-            fingerprint.borrow_mut().write(text.as_bytes());
+            sources.borrow_mut().model_file = Some(crate::part::digest(text.as_bytes()));
             lancer_scene::load_model_over(&text, &p.display().to_string(), registry, loaded.pipeline)
                 .map_err(anyhow::Error::msg)?
         }
@@ -420,17 +447,17 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
             img.height
         );
     }
-    let mut f = fingerprint.into_inner();
-    f.write(crate::stats::effective_model(&pipeline, &scene.image).as_bytes());
+    let mut identity = sources.into_inner();
     let img = &scene.image;
+    identity.model = crate::part::digest(crate::stats::effective_model(&pipeline, img).as_bytes());
+    let mut settings = Vec::new();
     for x in [img.width, img.height, img.samples] {
-        f.write_u32(x);
+        settings.extend(x.to_le_bytes());
     }
     for c in img.background.to_array() {
-        f.write_u32(c.to_bits());
+        settings.extend(c.to_bits().to_le_bytes());
     }
-    f.write(env!("CARGO_PKG_VERSION").as_bytes());
-    let identity = f.finish();
+    identity.image = crate::part::digest(&settings);
     Ok(Loaded { scene, pipeline, warnings, places, identity, name, source: src, load_time })
 }
 
@@ -580,7 +607,8 @@ pub(crate) fn render_recording(
         match args.tile {
             Some((index, count)) => {
                 let header = crate::part::Header {
-                    identity: format!("{identity:016x}"),
+                    identity: identity.fingerprint(),
+                    sources: identity.clone(),
                     scene: name.clone(),
                     width: frame.width,
                     height: frame.height,
@@ -785,8 +813,10 @@ fn write_aovs(
         if layer.name == BACKGROUND && layer.pixels.iter().all(|p| *p == glam::Vec3::ZERO) {
             continue;
         }
-        if layer.name == "beauty" {
-            bail!("a term named `beauty` would overwrite the beauty image");
+        // A layer's name becomes a file name: only a term's name by the registry's grammar (no
+        // separator, no dot, not `beauty` or `manifest`) or the background may.
+        if !(lancer_shading::is_term_name(&layer.name) || layer.name == BACKGROUND) {
+            bail!("a layer named `{}` cannot be written as a file of {}", layer.name.escape_debug(), dir.display());
         }
         images.push((&layer.name, &layer.pixels));
     }
@@ -827,8 +857,13 @@ fn write_aovs(
         finished.into_iter().collect()
     })?;
     for stale in earlier.iter().filter(|f| !files.contains(f)) {
-        // Only plain names a manifest of ours could list: never a path out of the folder.
-        if Path::new(stale).file_name().is_some_and(|n| n == stale.as_str()) {
+        // Only names a manifest of ours could list (a layer's image): never a path out of the
+        // folder, nor another file in it.
+        let ours = stale
+            .strip_suffix(".exr")
+            .or_else(|| stale.strip_suffix(".png"))
+            .is_some_and(|stem| lancer_shading::is_term_name(stem) || stem == BACKGROUND);
+        if ours {
             let _ = std::fs::remove_file(dir.join(stale));
         }
     }

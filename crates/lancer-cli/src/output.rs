@@ -310,32 +310,45 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     atomically(path, |f| Ok(f.write_all(bytes)?))
 }
 
-/// The temporary files being written now, removed by [`remove_temporaries`] when the user
-/// interrupts the program.
+/// The temporary files being written now, removed by [`remove_temporaries`] when the program
+/// is interrupted or stopped.
 static TEMPORARIES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
 
-/// Folders this run created for its output, removed (when still empty) on an interrupt.
-static CREATED_DIRS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+/// Folders this run created for its output, with the files it put in them: removed, files and
+/// folder, when the program is interrupted or stopped (the folder's other files, if another
+/// program wrote any meanwhile, keep it).
+static CREATED_DIRS: std::sync::Mutex<Vec<(PathBuf, Vec<PathBuf>)>> = std::sync::Mutex::new(Vec::new());
+
+fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 /// Creates the folder `dir` for output (and its parents), remembering it if it is new, so an
-/// interrupt leaves no empty folder behind.
+/// interrupt leaves no folder of this run's behind.
 pub fn create_output_dir(dir: &Path) -> Result<()> {
-    let new = !dir.exists();
+    let new = std::fs::symlink_metadata(dir).is_err();
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     if new {
-        CREATED_DIRS.lock().unwrap_or_else(|e| e.into_inner()).push(dir.to_path_buf());
+        lock(&CREATED_DIRS).push((dir.to_path_buf(), Vec::new()));
     }
     Ok(())
 }
 
-/// Removes every temporary file being written and every output folder this run created that is
-/// still empty (for an interrupt: no partial file is left).
+/// Removes every temporary file being written, and every output folder this run created with the
+/// files it wrote there (for an interrupt or a stop: no partial output is left).
 pub fn remove_temporaries() {
-    let list = TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner());
-    for tmp in list.iter() {
+    remove_under(Path::new(""));
+}
+
+/// [`remove_temporaries`] for the files and folders under `root` only (everything for `""`).
+fn remove_under(root: &Path) {
+    for tmp in lock(&TEMPORARIES).iter().filter(|t| t.starts_with(root)) {
         let _ = std::fs::remove_file(tmp);
     }
-    for dir in CREATED_DIRS.lock().unwrap_or_else(|e| e.into_inner()).iter() {
+    for (dir, files) in lock(&CREATED_DIRS).iter().filter(|(d, _)| d.starts_with(root)) {
+        for f in files {
+            let _ = std::fs::remove_file(f);
+        }
         let _ = std::fs::remove_dir(dir);
     }
 }
@@ -350,59 +363,84 @@ fn atomically(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) 
 /// renamed into place: [`Pending::finish`] does both (and can run on another thread, so that
 /// waiting for the disk does not hold up encoding the next file). Dropped unfinished, it
 /// removes its temporary file and leaves the path untouched.
+///
+/// The temporary file is created exclusively (`O_EXCL`) under an unpredictable name in the
+/// path's folder, so a symlink or file planted there is never followed nor overwritten; it takes
+/// the permissions of the file it replaces (or a new file's usual ones); the rename replaces the
+/// path itself, so a symlink planted at the path is replaced, never its target.
 pub struct Pending {
-    file: Option<std::fs::File>,
+    file: Option<tempfile::NamedTempFile>,
+    /// The temporary file's path, as registered for [`remove_temporaries`].
     tmp: PathBuf,
     path: PathBuf,
+}
+
+/// A new temporary file in `path`'s folder, to be renamed to `path`: created exclusively under an
+/// unpredictable name, with the permissions of the file at `path` when that is a regular file.
+pub fn temporary_for(path: &Path) -> Result<tempfile::NamedTempFile> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
+    let existing = std::fs::symlink_metadata(path).ok().filter(|m| m.is_file()).map(|m| m.permissions());
+    let prefix = format!(".{}.", name.to_string_lossy());
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    // A new file's usual permissions (0666 less the umask), not the temporary's private 0600.
+    #[cfg(unix)]
+    let new_file = <std::fs::Permissions as std::os::unix::fs::PermissionsExt>::from_mode(0o666);
+    #[cfg(unix)]
+    builder.permissions(new_file);
+    let tmp = builder.tempfile_in(dir).with_context(|| format!("creating a temporary file in {}", dir.display()))?;
+    if let Some(p) = existing {
+        // Exactly the replaced file's mode (the umask would narrow it at creation).
+        tmp.as_file().set_permissions(p).with_context(|| format!("keeping the permissions of {}", path.display()))?;
+    }
+    Ok(tmp)
 }
 
 impl Pending {
     /// Runs `fill` on a new temporary file beside `path`.
     fn begin(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<Pending> {
-        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
-        // A number of its own, so two writers of one path at once (`-o` into the `--aov`
-        // folder, say) never share a temporary file.
-        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-        let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let tmp: PathBuf = dir.join(format!(".{}.{}.{k}.tmp", name.to_string_lossy(), std::process::id()));
-        TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
+        let file = temporary_for(path).with_context(|| format!("writing {}", path.display()))?;
+        let tmp = file.path().to_path_buf();
+        lock(&TEMPORARIES).push(tmp.clone());
         // From here on, dropping `pending` (on an error) removes the temporary file.
-        let mut pending = Pending { file: None, tmp, path: path.to_path_buf() };
-        let result = (|| -> Result<()> {
-            let mut f = std::fs::File::create(&pending.tmp)?;
-            fill(&mut f)?;
-            pending.file = Some(f);
-            Ok(())
-        })();
-        result.with_context(|| format!("writing {}", path.display()))?;
+        let mut pending = Pending { file: Some(file), tmp, path: path.to_path_buf() };
+        let f = pending.file.as_mut().expect("just set").as_file_mut();
+        fill(f).with_context(|| format!("writing {}", path.display()))?;
         Ok(pending)
     }
 
     /// Flushes the file to disk and renames it to its path.
     pub fn finish(mut self) -> Result<()> {
         let file = self.file.take().expect("a pending file is filled");
-        let result = file.sync_all().and_then(|()| {
-            drop(file);
-            std::fs::rename(&self.tmp, &self.path)
-        });
-        result.with_context(|| format!("writing {}", self.path.display()))?;
-        // In place: nothing left for the drop to remove.
+        let result = file
+            .as_file()
+            .sync_all()
+            .map_err(anyhow::Error::from)
+            .and_then(|()| file.persist(&self.path).map(drop).map_err(|e| anyhow::Error::from(e.error)));
+        // Whatever happened, the temporary is no longer ours to remove: persisted, or removed by
+        // the failed persist's drop.
         self.untrack();
         self.tmp = PathBuf::new();
+        result.with_context(|| format!("writing {}", self.path.display()))?;
+        // A file in a folder this run created goes with the folder if the run is stopped.
+        let dir = self.path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        if let Some((_, files)) = lock(&CREATED_DIRS).iter_mut().find(|(d, _)| d == dir) {
+            files.push(self.path.clone());
+        }
         Ok(())
     }
 
     fn untrack(&self) {
-        TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner()).retain(|p| *p != self.tmp);
+        lock(&TEMPORARIES).retain(|p| *p != self.tmp);
     }
 }
 
 impl Drop for Pending {
     fn drop(&mut self) {
         if !self.tmp.as_os_str().is_empty() {
+            // The temporary file removes itself when dropped.
             self.file = None;
-            let _ = std::fs::remove_file(&self.tmp);
             self.untrack();
         }
     }
@@ -576,6 +614,71 @@ mod tests {
         assert!(format!("{err:#}").contains("b.bin") && format!("{err:#}").contains("no room"), "{err:#}");
         assert_eq!(listing(), ["a.bin"]);
         assert!(TEMPORARIES.lock().unwrap().iter().all(|t| !t.starts_with(dir)), "none still tracked");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn regression_symlinks_planted_at_temporary_names_or_the_output_are_never_followed() {
+        // Found in review: temporaries were `.NAME.PID.K.tmp`, opened with create-or-truncate:
+        // a symlink planted at that name had its target outside the folder overwritten, and the
+        // output path became a symlink to it.
+        use std::os::unix::fs::{PermissionsExt, symlink};
+        let folder = tempfile::tempdir().unwrap();
+        let outside = tempfile::tempdir().unwrap();
+        let target = outside.path().join("precious");
+        std::fs::write(&target, b"keep me").unwrap();
+        let dir = folder.path();
+        let path = dir.join("out.png");
+        // Every name the old scheme could have picked in this process, and a few more.
+        for k in 0..256 {
+            symlink(&target, dir.join(format!(".out.png.{}.{k}.tmp", std::process::id()))).unwrap();
+        }
+        write_atomic(&path, b"image").unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"keep me");
+        assert!(std::fs::symlink_metadata(&path).unwrap().is_file());
+        // The output path itself a symlink out of the folder: replaced, its target untouched.
+        let linked = dir.join("linked.png");
+        symlink(&target, &linked).unwrap();
+        write_atomic(&linked, b"image").unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"keep me");
+        let meta = std::fs::symlink_metadata(&linked).unwrap();
+        assert!(meta.is_file() && !meta.file_type().is_symlink());
+        assert_eq!(std::fs::read(&linked).unwrap(), b"image");
+        // An existing file keeps its permissions; a new one gets a new file's usual ones.
+        let private = dir.join("private.exr");
+        std::fs::write(&private, b"old").unwrap();
+        std::fs::set_permissions(&private, std::fs::Permissions::from_mode(0o600)).unwrap();
+        write_atomic(&private, b"new").unwrap();
+        assert_eq!(std::fs::metadata(&private).unwrap().permissions().mode() & 0o777, 0o600);
+        let shared = dir.join("shared.exr");
+        std::fs::write(&shared, b"old").unwrap();
+        std::fs::set_permissions(&shared, std::fs::Permissions::from_mode(0o664)).unwrap();
+        write_atomic(&shared, b"new").unwrap();
+        assert_eq!(std::fs::metadata(&shared).unwrap().permissions().mode() & 0o777, 0o664);
+        let usual = std::fs::File::create(dir.join("usual")).unwrap().metadata().unwrap().permissions().mode();
+        write_atomic(&dir.join("fresh.exr"), b"new").unwrap();
+        assert_eq!(std::fs::metadata(dir.join("fresh.exr")).unwrap().permissions().mode(), usual);
+    }
+
+    #[test]
+    fn regression_a_stop_removes_the_output_folder_it_created_with_the_files_written_there() {
+        // Found in review: a stop while the per-term images were being written left the new
+        // `--aov` folder with some of them (only an empty folder was removed).
+        let folder = tempfile::tempdir().unwrap();
+        let existing = folder.path().join("existing");
+        std::fs::create_dir(&existing).unwrap();
+        std::fs::write(existing.join("mine.txt"), b"not Lancer's").unwrap();
+        create_output_dir(&existing).unwrap();
+        write_atomic(&existing.join("beauty.png"), b"x").unwrap();
+        let created = folder.path().join("aov");
+        create_output_dir(&created).unwrap();
+        write_atomic(&created.join("ambient.exr"), b"x").unwrap();
+        write_atomic(&created.join("beauty.exr"), b"x").unwrap();
+        let unfinished = Pending::begin(&created.join("diffuse.exr"), |f| Ok(f.write_all(b"half")?)).unwrap();
+        remove_under(folder.path());
+        assert!(!created.exists(), "the folder this run created is gone with its files");
+        assert!(existing.join("mine.txt").exists() && existing.join("beauty.png").exists(), "an existing folder stays");
+        drop(unfinished);
     }
 
     #[test]

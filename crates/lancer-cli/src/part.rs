@@ -3,24 +3,102 @@
 //! that records where they belong and what render they come from, so the merged frame is the
 //! whole render's, bit for bit.
 //!
-//! Layout: the line `LANCER-PART 1`, one line of JSON (the [`Header`]), then for each band of the
+//! Layout: the line `LANCER-PART 2`, one line of JSON (the [`Header`]), then for each band of the
 //! part in increasing order, for each layer in frame order, the band's rows as little-endian
 //! `f32` RGB triples, row by row from the left.
+//!
+//! A part file is untrusted input (the scale-out recipes share a parts folder every node can
+//! write): every header field is checked when the part is read, before anything is sized or
+//! written, and a layer's name becomes a file name only when it is a term name by the
+//! registry's grammar.
 
+use std::hash::Hasher;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
+use lancer_core::frame::BACKGROUND;
 use lancer_core::{Frame, Layer, RenderStats};
 use serde::{Deserialize, Serialize};
 
-const MAGIC: &[u8] = b"LANCER-PART 1\n";
+const MAGIC: &[u8] = b"LANCER-PART 2\n";
+/// The first line of the earlier format, refused with a word on what to do.
+const MAGIC_1: &[u8] = b"LANCER-PART 1\n";
+
+/// The fingerprint of some bytes, in hex (FNV-1a, 64 bits: it tells renders apart, it is not
+/// a signature).
+pub fn digest(bytes: &[u8]) -> String {
+    let mut f = fnv::FnvHasher::default();
+    f.write(bytes);
+    format!("{:016x}", f.finish())
+}
+
+/// What a render depends on, each as a fingerprint: parts of one render share all of them, and
+/// when two parts differ these say what differs.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sources {
+    /// The scene file's text.
+    pub scene: String,
+    /// The `--model` file's text, when one was given.
+    pub model_file: Option<String>,
+    /// Each file the scene reads (meshes, textures), as the scene names it, with its contents'.
+    pub files: Vec<(String, String)>,
+    /// The effective model (terms, variants, parameters, shadows, depth).
+    pub model: String,
+    /// The image settings: size, samples per pixel, background.
+    pub image: String,
+    /// Lancer's version.
+    pub version: String,
+}
+
+impl Sources {
+    /// The fingerprint of all of them together.
+    pub fn fingerprint(&self) -> String {
+        digest(serde_json::to_string(self).expect("plain data serialises").as_bytes())
+    }
+
+    /// What differs between these and `other`'s, in words (none when they are the same).
+    fn differences(&self, other: &Sources) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.version != other.version {
+            out.push(format!("Lancer's version ({} here, {} there)", self.version, other.version));
+        }
+        if self.scene != other.scene {
+            out.push("the scene file's text".to_owned());
+        }
+        match (&self.model_file, &other.model_file) {
+            (Some(a), Some(b)) if a != b => out.push("the --model file's text".to_owned()),
+            (Some(_), None) | (None, Some(_)) => out.push("whether a --model file was given".to_owned()),
+            _ => {}
+        }
+        for (name, d) in &self.files {
+            match other.files.iter().find(|(n, _)| n == name) {
+                Some((_, e)) if e != d => out.push(format!("the contents of `{name}`")),
+                None => out.push(format!("`{name}` is read by one part only")),
+                _ => {}
+            }
+        }
+        for (name, _) in other.files.iter().filter(|(n, _)| !self.files.iter().any(|(m, _)| m == n)) {
+            out.push(format!("`{name}` is read by one part only"));
+        }
+        if self.model != other.model {
+            out.push("the effective model".to_owned());
+        }
+        if self.image != other.image {
+            out.push("the image's size, samples or background".to_owned());
+        }
+        out
+    }
+}
 
 /// What a part file says about itself.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Header {
-    /// A fingerprint of the render (scene, files, model, settings, Lancer's version), in hex:
-    /// parts of one render share it.
+    /// The fingerprint of [`Header::sources`], in hex: parts of one render share it.
     pub identity: String,
+    /// What the render depends on, one fingerprint each.
+    pub sources: Sources,
     /// How the scene was named where the part was rendered.
     pub scene: String,
     /// The whole image's width.
@@ -89,7 +167,10 @@ struct Part {
 fn read(path: &Path, limit: u64) -> Result<Part> {
     let bytes = crate::app::read_bytes(path, "part", limit).map_err(anyhow::Error::msg)?;
     let bad = |what: &str| anyhow::anyhow!("{}: not a Lancer part file ({what})", path.display());
-    let rest = bytes.strip_prefix(MAGIC).ok_or_else(|| bad("it does not start with `LANCER-PART 1`"))?;
+    if bytes.starts_with(MAGIC_1) {
+        return Err(bad("it is in the format of an earlier Lancer: render the part again"));
+    }
+    let rest = bytes.strip_prefix(MAGIC).ok_or_else(|| bad("it does not start with `LANCER-PART 2`"))?;
     let end = rest.iter().position(|&b| b == b'\n').ok_or_else(|| bad("no header line"))?;
     let header: Header =
         serde_json::from_slice(&rest[..end]).map_err(|e| bad(&format!("its header does not read: {e}")))?;
@@ -108,6 +189,7 @@ fn read(path: &Path, limit: u64) -> Result<Part> {
     {
         return Err(bad("its header names no valid part of a render"));
     }
+    check_header(&header).map_err(|why| bad(&format!("its header {why}")))?;
     let pixels: usize = lancer_shading::part_bands(header.height, header.index, header.count)
         .map(|b| band_pixels(b, header.width, header.height, header.band_rows).len())
         .sum();
@@ -116,6 +198,58 @@ fn read(path: &Path, limit: u64) -> Result<Part> {
         return Err(bad(&format!("{} bytes of pixels where its header says {want}: cut short?", data.len())));
     }
     Ok(Part { path: path.to_path_buf(), header, data })
+}
+
+/// Text from a header that is printed in messages: short, one line, no control characters (a
+/// terminal's escape sequences among them).
+fn printable(s: &str, max: usize) -> bool {
+    s.len() <= max && !s.chars().any(char::is_control)
+}
+
+fn is_hex_digest(s: &str) -> bool {
+    s.len() == 16 && s.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+}
+
+/// Every field of a header that the figures' check in [`read`] does not cover: the layers (each
+/// a term's name by the registry's grammar, or the background; each once), the texts printed in
+/// messages, the fingerprints and the figures summed over parts.
+fn check_header(h: &Header) -> Result<(), String> {
+    for (i, name) in h.layers.iter().enumerate() {
+        let last = i + 1 == h.layers.len();
+        if !(lancer_shading::is_term_name(name) || (last && name == BACKGROUND)) {
+            let shown: String = name.chars().flat_map(char::escape_debug).take(80).collect();
+            return Err(format!(
+                "names a layer `{shown}`: a layer is a term's name (a lowercase letter, then lowercase letters, digits, `-` or `_`; not `beauty` or `manifest`), or `background` last"
+            ));
+        }
+        if h.layers[..i].contains(name) {
+            return Err(format!("names the layer `{name}` twice"));
+        }
+    }
+    let s = &h.sources;
+    let digests_ok = is_hex_digest(&h.identity)
+        && is_hex_digest(&s.scene)
+        && is_hex_digest(&s.model)
+        && is_hex_digest(&s.image)
+        && s.model_file.as_deref().is_none_or(is_hex_digest)
+        && s.files.len() <= 4096
+        && s.files.iter().all(|(n, d)| printable(n, 4096) && is_hex_digest(d));
+    if !digests_ok || !printable(&s.version, 64) {
+        return Err("has malformed fingerprints".to_owned());
+    }
+    if h.identity != s.fingerprint() {
+        return Err("has a fingerprint that is not its sources' (the file was edited or damaged)".to_owned());
+    }
+    if !printable(&h.scene, 4096) || !printable(&h.model, 4096) {
+        return Err("names its scene or model with control characters or at great length".to_owned());
+    }
+    if !(1..=1 << 20).contains(&h.samples) {
+        return Err(format!("says {} samples per pixel", h.samples));
+    }
+    if !(h.seconds.is_finite() && h.seconds >= 0.0) || h.rays.iter().any(|&r| r > 1 << 56) {
+        return Err("has impossible statistics".to_owned());
+    }
+    Ok(())
 }
 
 /// Reads `paths` and puts them together: the frame, with the rays of all parts and the sum of
@@ -130,13 +264,23 @@ pub fn merge(paths: &[PathBuf], limit: u64) -> Result<(Frame, f64, String)> {
     for p in &parts[1..] {
         let h = &p.header;
         let differs = if h.identity != first.identity {
+            let what = first.sources.differences(&h.sources).join(", ");
             Some(format!(
-                "comes from another render (scene `{}`, {}; the first part: scene `{}`, {})",
-                h.scene, h.model, first.scene, first.model
+                "comes from another render than {} (they differ in {what}; this part: scene `{}`, {}; that one: scene `{}`, {})",
+                parts[0].path.display(),
+                h.scene,
+                h.model,
+                first.scene,
+                first.model
             ))
-        } else if (h.width, h.height, h.samples, h.count, &h.layers)
-            != (first.width, first.height, first.samples, first.count, &first.layers)
-        {
+        } else if h.layers != first.layers {
+            Some(format!(
+                "has the layers {} where {} has {}",
+                h.layers.join(", "),
+                parts[0].path.display(),
+                first.layers.join(", ")
+            ))
+        } else if (h.width, h.height, h.samples, h.count) != (first.width, first.height, first.samples, first.count) {
             Some(format!(
                 "is part of {}x{} cut in {}, the first part of {}x{} cut in {}",
                 h.width, h.height, h.count, first.width, first.height, first.count

@@ -275,21 +275,25 @@ fn files_over_the_size_limit_are_refused_with_the_figure_and_the_flag() {
 
 #[cfg(unix)]
 #[test]
-fn ctrl_c_during_a_render_stops_cleanly_and_leaves_no_file() {
-    let dir = tempfile::tempdir().unwrap();
-    let child = Command::new(env!("CARGO_BIN_EXE_lancer"))
-        .args(["render", "--width", "2048", "--samples", "16", "-o", "out.png", "--aov", "aov"])
-        .current_dir(dir.path())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("lancer runs");
-    std::thread::sleep(std::time::Duration::from_millis(400));
-    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().expect("kill runs");
-    assert!(kill.success());
-    let o = child.wait_with_output().unwrap();
-    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
-    assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
-    assert!(files(dir.path()).is_empty(), "left behind: {:?}", files(dir.path()));
+fn ctrl_c_sigterm_and_sighup_during_a_render_stop_cleanly_and_leave_no_file() {
+    // Found in review: SIGTERM and SIGHUP (what `timeout`, Slurm's `scancel` and Kubernetes send)
+    // killed the render without cleaning up; only Ctrl-C did.
+    for (signal, code, says) in [("INT", 130, "interrupted"), ("TERM", 143, "SIGTERM"), ("HUP", 129, "SIGHUP")] {
+        let dir = tempfile::tempdir().unwrap();
+        let child = Command::new(env!("CARGO_BIN_EXE_lancer"))
+            .args(["render", "--width", "2048", "--samples", "16", "-o", "out.png", "--aov", "aov"])
+            .current_dir(dir.path())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("lancer runs");
+        std::thread::sleep(std::time::Duration::from_millis(400));
+        let kill = Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status().unwrap();
+        assert!(kill.success());
+        let o = child.wait_with_output().unwrap();
+        assert_eq!(o.status.code(), Some(code), "SIG{signal}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "SIG{signal}: {}", stderr(&o));
+        assert!(files(dir.path()).is_empty(), "SIG{signal} left behind: {:?}", files(dir.path()));
+    }
 }
 
 #[test]
@@ -727,8 +731,14 @@ fn a_missing_duplicated_mismatched_or_broken_part_is_an_error_and_nothing_is_wri
     for (parts, says) in [
         (&["a0.lpart", "a1.lpart"][..], "part(s) 2 of 3 missing"),
         (&["a0.lpart", "a1.lpart", "a1.lpart", "a2.lpart"][..], "part 1 of 3 is given twice"),
-        (&["a0.lpart", "a1.lpart", "m2.lpart"][..], "m2.lpart comes from another render (scene"),
-        (&["a0.lpart", "a1.lpart", "w2.lpart"][..], "w2.lpart comes from another render"),
+        (
+            &["a0.lpart", "a1.lpart", "m2.lpart"][..],
+            "m2.lpart comes from another render than a0.lpart (they differ in the scene file's text",
+        ),
+        (
+            &["a0.lpart", "a1.lpart", "w2.lpart"][..],
+            "w2.lpart comes from another render than a0.lpart (they differ in the image's size",
+        ),
         (&["a0.lpart", "a1.lpart", "cut.lpart"][..], "cut short?"),
         (&["a0.lpart", "junk.lpart"][..], "junk.lpart: not a Lancer part file"),
         (&["a0.lpart", "nope.lpart"][..], "nope.lpart"),
@@ -1117,14 +1127,114 @@ fn the_studio_saves_edits_into_the_scene_text_keeping_its_comments() {
 fn regression_a_part_header_claiming_billions_is_refused_before_anything_is_sized() {
     // Found in review: a 100-byte part claiming count = 4e9 made merge allocate billions.
     let dir = tempfile::tempdir().unwrap();
-    for header in [
-        r#"{"identity":"0","scene":"s","width":64,"height":36,"samples":1,"model":"m","index":0,"count":4000000000,"band_rows":16,"layers":["ambient"],"rays":[0,0,0],"seconds":0}"#,
-        r#"{"identity":"0","scene":"s","width":4000000000,"height":36,"samples":1,"model":"m","index":0,"count":1,"band_rows":16,"layers":["ambient"],"rays":[0,0,0],"seconds":0}"#,
-        r#"{"identity":"0","scene":"s","width":64,"height":36,"samples":1,"model":"m","index":0,"count":1,"band_rows":7,"layers":["ambient"],"rays":[0,0,0],"seconds":0}"#,
+    let sources = r#""sources":{"scene":"0000000000000000","model_file":null,"files":[],"model":"0000000000000000","image":"0000000000000000","version":"0.0.0"}"#;
+    for figures in [
+        r#""width":64,"height":36,"samples":1,"model":"m","index":0,"count":4000000000,"band_rows":16"#,
+        r#""width":4000000000,"height":36,"samples":1,"model":"m","index":0,"count":1,"band_rows":16"#,
+        r#""width":64,"height":36,"samples":1,"model":"m","index":0,"count":1,"band_rows":7"#,
     ] {
-        std::fs::write(dir.path().join("p.lpart"), format!("LANCER-PART 1\n{header}\n")).unwrap();
+        let header = format!(
+            r#"{{"identity":"0000000000000000",{sources},"scene":"s",{figures},"layers":["ambient"],"rays":[0,0,0],"seconds":0}}"#
+        );
+        std::fs::write(dir.path().join("p.lpart"), format!("LANCER-PART 2\n{header}\n")).unwrap();
         let o = lancer(dir.path(), &["merge", "p.lpart", "-o", "out.png"]);
         assert!(!o.status.success() && stderr(&o).contains("names no valid part"), "{}", stderr(&o));
         assert!(!dir.path().join("out.png").exists());
     }
+}
+
+/// A part file's three pieces: its first line, its header, its pixels.
+fn split_part(bytes: &[u8]) -> (&[u8], serde_json::Value, &[u8]) {
+    let first = bytes.iter().position(|&b| b == b'\n').unwrap() + 1;
+    let end = first + bytes[first..].iter().position(|&b| b == b'\n').unwrap();
+    (&bytes[..first], serde_json::from_slice(&bytes[first..end]).unwrap(), &bytes[end + 1..])
+}
+
+fn join_part(magic: &[u8], header: &serde_json::Value, pixels: &[u8]) -> Vec<u8> {
+    let mut out = magic.to_vec();
+    out.extend(serde_json::to_vec(header).unwrap());
+    out.push(b'\n');
+    out.extend(pixels);
+    out
+}
+
+/// Every file under `dir`, relative to it.
+fn tree(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                todo.push(p);
+            } else {
+                out.push(p.strip_prefix(dir).unwrap().display().to_string());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn regression_merge_refuses_part_headers_whose_layers_are_paths_or_lancers_own_files() {
+    // Found in review: a part whose layers were `../escaped` or an absolute path made
+    // `merge --aov DIR` write and overwrite images outside DIR, with exit 0.
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("work");
+    std::fs::create_dir(&dir).unwrap();
+    let outside = root.path().join("outside");
+    for (i, s) in [(0, "glass.toml"), (1, "glass.toml"), (2, "mirrors.toml")] {
+        let part = if s == "glass.toml" { format!("{i}/2") } else { "1/2".to_owned() };
+        let o =
+            lancer(&dir, &["render", &scene(s), "--width", "48", "--tile", &part, "-o", &format!("p{i}.lpart"), "-q"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let before = tree(root.path());
+    let read = |n: &str| std::fs::read(dir.join(n)).unwrap();
+    let (p0, p1, m1) = (read("p0.lpart"), read("p1.lpart"), read("p2.lpart"));
+    let abs = format!("{}", outside.display());
+    /// A change to both parts' headers or to the second's only, and what merge must say.
+    type Edit<'a> = (bool, Box<dyn Fn(&mut serde_json::Value) + 'a>, &'a str);
+    let edits: Vec<Edit> = vec![
+        (true, Box::new(|h| h["layers"][0] = "../escaped".into()), "names a layer `../escaped`"),
+        (true, Box::new(|h| h["layers"][0] = abs.clone().into()), "names a layer `/"),
+        (true, Box::new(|h| h["layers"][0] = "beauty".into()), "names a layer `beauty`"),
+        (true, Box::new(|h| h["layers"][0] = "manifest".into()), "names a layer `manifest`"),
+        (true, Box::new(|h| h["layers"][0] = "a\u{1b}[31m".into()), "names a layer `a\\u{1b}[31m`"),
+        (true, Box::new(|h| h["layers"][1] = h["layers"][0].clone()), "names the layer `ambient` twice"),
+        (false, Box::new(|h| h["layers"][0] = "rim".into()), "has the layers rim, diffuse"),
+        (false, Box::new(|h| h["identity"] = "0123456789abcdef".into()), "not its sources'"),
+        (false, Box::new(|h| h["scene"] = "s\u{1b}]0;pwned\u{7}".into()), "control characters"),
+        (
+            false,
+            Box::new(|h| {
+                let (_, m, _) = split_part(&m1);
+                h["sources"] = m["sources"].clone();
+                h["identity"] = m["identity"].clone();
+            }),
+            "they differ in the scene file's text",
+        ),
+    ];
+    for (both, edit, says) in &edits {
+        let mut parts = Vec::new();
+        for (k, bytes) in [&p0, &p1].into_iter().enumerate() {
+            let (magic, mut header, pixels) = split_part(bytes);
+            if *both || k == 1 {
+                edit(&mut header);
+            }
+            parts.push(join_part(magic, &header, pixels));
+        }
+        std::fs::write(dir.join("h0.lpart"), &parts[0]).unwrap();
+        std::fs::write(dir.join("h1.lpart"), &parts[1]).unwrap();
+        let o = lancer(&dir, &["merge", "h0.lpart", "h1.lpart", "-o", "out.png", "--aov", "aov"]);
+        assert_eq!(o.status.code(), Some(1), "{says}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{says}: {}", stderr(&o));
+        std::fs::remove_file(dir.join("h0.lpart")).unwrap();
+        std::fs::remove_file(dir.join("h1.lpart")).unwrap();
+        assert_eq!(tree(root.path()), before, "{says}: merge wrote something");
+    }
+    // The parts as rendered still merge.
+    let o = lancer(&dir, &["merge", "p0.lpart", "p1.lpart", "-o", "out.png", "--aov", "aov", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
 }

@@ -45,6 +45,34 @@ pub enum RegistryError {
     /// The same shadow model name twice.
     #[error("shadow model `{0}` is already registered")]
     DuplicateShadow(String),
+    /// A name outside the grammar of [`is_name`], or one kept for Lancer's own files.
+    #[error(
+        "`{0}` cannot name a term, variant or shadow model: a name is a lowercase letter, then up to {max} lowercase letters, digits, `-` or `_`, and not `beauty`, `background` or `manifest`",
+        max = NAME_MAX - 1
+    )]
+    BadName(String),
+}
+
+/// The longest name a term, variant or shadow model may have.
+pub const NAME_MAX: usize = 32;
+
+/// Names a term may not take: its image would take the place of one of Lancer's own files
+/// (`beauty.exr`, `background.exr`, `manifest.json` in an `--aov` folder).
+pub const RESERVED: [&str; 3] = ["beauty", "background", "manifest"];
+
+/// Whether `s` is in the grammar of term, variant and shadow-model names: a lowercase ASCII letter,
+/// then lowercase letters, digits, `-` and `_`, at most [`NAME_MAX`] bytes. A term's name is its
+/// image's file name, so the grammar leaves out every path separator, dot and control character.
+pub fn is_name(s: &str) -> bool {
+    let mut bytes = s.bytes();
+    s.len() <= NAME_MAX
+        && bytes.next().is_some_and(|b| b.is_ascii_lowercase())
+        && bytes.all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-' || b == b'_')
+}
+
+/// Whether `s` can name a term (and so a per-term image): [`is_name`] and not [`RESERVED`].
+pub fn is_term_name(s: &str) -> bool {
+    is_name(s) && !RESERVED.contains(&s)
 }
 
 /// A model that names something the registry does not have, or gives it bad parameters.
@@ -232,6 +260,14 @@ impl Registry {
 
     /// Adds a term variant. Errors if that name and variant are already there.
     pub fn register_term(&mut self, spec: TermSpec) -> Result<(), RegistryError> {
+        for name in [spec.name, spec.variant] {
+            if !is_name(name) {
+                return Err(RegistryError::BadName(name.into()));
+            }
+        }
+        if RESERVED.contains(&spec.name) {
+            return Err(RegistryError::BadName(spec.name.into()));
+        }
         if self.terms.iter().any(|t| t.name == spec.name && t.variant == spec.variant) {
             return Err(RegistryError::DuplicateTerm { name: spec.name.into(), variant: spec.variant.into() });
         }
@@ -241,6 +277,9 @@ impl Registry {
 
     /// Adds a shadow model. Errors if the name is already there.
     pub fn register_shadow(&mut self, spec: ShadowSpec) -> Result<(), RegistryError> {
+        if !is_name(spec.name) {
+            return Err(RegistryError::BadName(spec.name.into()));
+        }
         if self.shadows.iter().any(|s| s.name == spec.name) {
             return Err(RegistryError::DuplicateShadow(spec.name.into()));
         }
@@ -343,6 +382,32 @@ impl Registry {
 mod tests {
     use super::*;
     use crate::ParamValue;
+
+    #[test]
+    fn names_that_are_paths_or_lancers_own_files_are_refused() {
+        let r = Registry::with_builtins();
+        for t in r.terms() {
+            assert!(is_term_name(t.name) && is_name(t.variant), "{} {}", t.name, t.variant);
+        }
+        for s in r.shadows() {
+            assert!(is_name(s.name), "{}", s.name);
+        }
+        let base = r.terms()[0];
+        for bad in
+            ["../escaped", "/abs", "a/b", "a.b", "", "Beauty", "beauty", "manifest", "background", "é", "a\nb", "1st"]
+        {
+            assert!(!is_term_name(bad), "{bad:?}");
+            let mut reg = Registry::with_builtins();
+            let e = reg.register_term(TermSpec { name: Box::leak(bad.to_owned().into_boxed_str()), ..base });
+            assert!(matches!(e, Err(RegistryError::BadName(_))), "{bad:?}: {e:?}");
+        }
+        let long = "a".repeat(NAME_MAX + 1);
+        assert!(!is_name(&long) && is_name(&long[..NAME_MAX]));
+        let mut reg = Registry::with_builtins();
+        let e = reg.register_term(TermSpec { name: "rim", variant: "Odd/one", ..base });
+        assert!(matches!(e, Err(RegistryError::BadName(_))));
+        assert!(reg.register_term(TermSpec { name: "rim", variant: "fresnel-like_2", ..base }).is_ok());
+    }
 
     #[test]
     fn unknown_names_suggest_the_nearest() {
