@@ -394,6 +394,46 @@ pub fn run(args: &[String]) -> Result<()> {
 
     json.insert("spheres".into(), sphere_rows.into());
 
+    // Scenes of many objects, each its own `[[objects]]` table: the whole command (reading,
+    // loading, the checks `lancer check` makes, preparing, a 16x9 render) once each, its time
+    // and peak memory (Lancer's own figures). About 15 s in all; each file is deleted after
+    // (the larger is 84 MB).
+    println!(
+        "\nLarge scenes (the sphere grid as [[objects]] tables: read, loaded, checked, prepared, a 16x9 render; 2 threads, one run)"
+    );
+    println!("{:>10} {:>10} {:>12} {:>10} {:>11}", "objects", "file (MB)", "command (s)", "load (s)", "peak (MB)");
+    let mut large_rows = Vec::new();
+    let mut largest = None;
+    for n in [100_000usize, 1_000_000] {
+        let path = dir.join(format!("spheres-{n}.toml"));
+        let text = spheres_scene(n);
+        let mb = text.len() as f64 / 1e6;
+        std::fs::write(&path, text)?;
+        let r = lancer_run(&lancer, &path, 2, &["--width", "16", "--height", "9"]);
+        let _ = std::fs::remove_file(&path);
+        let r = r?;
+        println!("{n:>10} {mb:>10.1} {:>12.3} {:>10.3} {:>11.1}", r.wall, r.load, r.peak_mb);
+        large_rows.push(serde_json::json!({
+            "objects": n, "file_mb": mb, "command_s": r.wall, "load_s": r.load, "peak_mb": r.peak_mb,
+        }));
+        largest = Some(r);
+    }
+    json.insert("large_scenes".into(), large_rows.into());
+    if let Some(r) = largest {
+        targets.push(Target {
+            what: "10^6 objects: read, load, check and prepare (whole command, s)",
+            measured: r.wall,
+            bound: 20.0,
+            at_most: true,
+        });
+        targets.push(Target {
+            what: "10^6 objects: peak memory (MB)",
+            measured: r.peak_mb,
+            bound: 2000.0,
+            at_most: true,
+        });
+    }
+
     println!("\nScaling with the triangle count (a rippled height-field mesh, 640x360, 2 threads, median of {runs})");
     println!(
         "{:>10} {:>12} {:>12} {:>14} {:>10} {:>11}",

@@ -108,6 +108,9 @@ pub(crate) struct SceneArgs {
     /// Largest file (scene, model, mesh or texture) Lancer will read, in MB.
     #[arg(long, value_name = "MB", default_value_t = MAX_FILE_MB, value_parser = clap::value_parser!(u64).range(1..))]
     max_file_size: u64,
+    /// The most pixels a scene's textures may hold together (each is refused from its header).
+    #[arg(long, value_name = "N", default_value_t = lancer_scene::MAX_TEXTURE_PIXELS, value_parser = clap::value_parser!(u64).range(1..))]
+    max_texture_pixels: u64,
     /// Meshes and textures only from under the scene's folder (the studio sets it).
     #[arg(skip)]
     confined: bool,
@@ -297,18 +300,66 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
 /// The bytes of the file `path` (a `what`: scene, model, file), if it is a regular file (not a
 /// device, a pipe or a folder, which could be read without end) of at most `limit` MB.
 pub(crate) fn read_bytes(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, String> {
-    let meta = std::fs::metadata(path).map_err(|e| format!("reading {what} {}: {e}", path.display()))?;
-    if !meta.is_file() {
+    read_checked(path, what, limit, None).map(|(_, bytes)| bytes)
+}
+
+/// Reads the regular file `path` of at most `limit` MB (a `what`: scene, mesh...), and when
+/// `under` is given only if its real path is under that folder. The checks are made on the file
+/// opened, not on the path before it is opened: a file swapped for a link or another file between
+/// the check and the read is refused. Returns the file's real path with its bytes.
+pub(crate) fn read_checked(
+    path: &Path,
+    what: &str,
+    limit: u64,
+    under: Option<&Path>,
+) -> Result<(PathBuf, Vec<u8>), String> {
+    use std::io::Read;
+    let fail = |e: std::io::Error| format!("reading {what} {}: {e}", path.display());
+    // Looked at first so that a FIFO or a device is never opened (opening a FIFO would wait).
+    if !std::fs::metadata(path).map_err(fail)?.is_file() {
         return Err(format!("{what} {} is not a regular file", path.display()));
     }
-    if meta.len() > limit * 1_000_000 {
+    let file = std::fs::File::open(path).map_err(fail)?;
+    let opened = file.metadata().map_err(fail)?;
+    if !opened.is_file() {
+        return Err(format!("{what} {} is not a regular file", path.display()));
+    }
+    let real = std::fs::canonicalize(path).map_err(fail)?;
+    // The real path must name the very file opened (it was not swapped meanwhile).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let now = std::fs::metadata(&real).map_err(fail)?;
+        if (now.dev(), now.ino()) != (opened.dev(), opened.ino()) {
+            return Err(format!("{what} {} changed while it was being opened; try again", path.display()));
+        }
+    }
+    if let Some(folder) = under
+        && !real.starts_with(folder)
+    {
         return Err(format!(
-            "{what} {} is {:.0} MB, over the {limit} MB limit (raise it with --max-file-size)",
-            path.display(),
-            meta.len() as f64 / 1e6
+            "`{}` is outside the scene's folder: the studio reads only files under it",
+            path.display()
         ));
     }
-    std::fs::read(path).map_err(|e| format!("reading {what} {}: {e}", path.display()))
+    let max = limit * 1_000_000;
+    let too_big = |len: u64| {
+        format!(
+            "{what} {} is {:.0} MB, over the {limit} MB limit (raise it with --max-file-size)",
+            path.display(),
+            len as f64 / 1e6
+        )
+    };
+    if opened.len() > max {
+        return Err(too_big(opened.len()));
+    }
+    // Never more than the limit, even if the file grows while it is read.
+    let mut bytes = Vec::with_capacity(opened.len() as usize);
+    file.take(max + 1).read_to_end(&mut bytes).map_err(fail)?;
+    if bytes.len() as u64 > max {
+        return Err(too_big(bytes.len() as u64));
+    }
+    Ok((real, bytes))
 }
 
 fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
@@ -340,10 +391,14 @@ fn load(registry: &Registry, args: &SceneArgs) -> Result<Loaded> {
     load_recording(registry, args, &std::cell::RefCell::new(Vec::new()))
 }
 
+/// The files a load read, each with its size and modification time taken just before it was
+/// read (so a save made while the render runs is seen as a change afterwards).
+pub(crate) type Inputs = std::cell::RefCell<Vec<(PathBuf, Option<crate::watch::Stamp>)>>;
+
 /// [`load`], adding to `inputs` every file it reads (scene, model, meshes, textures), even when
 /// it fails: what `watch` watches.
-fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::RefCell<Vec<PathBuf>>) -> Result<Loaded> {
-    inputs.borrow_mut().extend(args.scene.iter().chain(&args.model).cloned());
+fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Result<Loaded> {
+    inputs.borrow_mut().extend(args.scene.iter().chain(&args.model).map(|p| (p.clone(), crate::watch::stamp(p))));
     let (src, name) = match &args.scene {
         Some(p) => (read(p, "scene", args.max_file_size)?, p.display().to_string()),
         None => (DEFAULT_SCENE.to_owned(), DEFAULT_SCENE_NAME.to_owned()),
@@ -355,27 +410,31 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &std::cell::Ref
         version: env!("CARGO_PKG_VERSION").to_owned(),
         ..Default::default()
     });
+    let folder = match args.confined {
+        true => Some(
+            std::fs::canonicalize(if base.as_os_str().is_empty() { Path::new(".") } else { &base })
+                .with_context(|| format!("finding the folder of {name}"))?,
+        ),
+        false => None,
+    };
+    // Each file read once, by its real path, however the scene names it (`a.png`, `./a.png`).
+    let read_already = std::cell::RefCell::new(std::collections::HashMap::<PathBuf, Vec<u8>>::new());
     let resolve = |rel: &str| {
         let path = base.join(rel);
-        if args.confined {
-            let folder = std::fs::canonicalize(if base.as_os_str().is_empty() { Path::new(".") } else { &base });
-            let file = std::fs::canonicalize(&path);
-            if let (Ok(folder), Ok(file)) = (&folder, &file)
-                && !file.starts_with(folder)
-            {
-                return Err(format!("`{rel}` is outside the scene's folder: the studio reads only files under it"));
-            }
-        }
-        inputs.borrow_mut().push(path.clone());
-        let bytes = read_bytes(&path, "file", args.max_file_size)?;
+        inputs.borrow_mut().push((path.clone(), crate::watch::stamp(&path)));
+        let (real, bytes) = read_checked(&path, "file", args.max_file_size, folder.as_deref())
+            .map_err(|e| e.replace(&format!("`{}`", path.display()), &format!("`{rel}`")))?;
         // Only a part of a render needs it: hashing a large mesh byte by byte is not free.
         if args.fingerprint {
             sources.borrow_mut().files.push((rel.to_owned(), crate::part::digest(&bytes)));
         }
-        Ok(bytes)
+        Ok(read_already.borrow_mut().entry(real).or_insert(bytes).clone())
     };
+
     let load_start = Instant::now();
-    let loaded = lancer_scene::load_scene_with(&src, &name, registry, &resolve).map_err(anyhow::Error::msg)?;
+    let limits = lancer_scene::Limits { max_texture_pixels: args.max_texture_pixels, ..Default::default() };
+    let loaded =
+        lancer_scene::load_scene_within(&src, &name, registry, &resolve, &limits).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
     let (mut scene, warnings, mut places) = (loaded.scene, loaded.warnings, loaded.places);
     places.chosen_terms |= args.terms.is_some() || args.model.is_some();
@@ -505,11 +564,7 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
 }
 
 /// [`render`], adding to `inputs` every file it reads.
-pub(crate) fn render_recording(
-    registry: &Registry,
-    args: &RenderArgs,
-    inputs: &std::cell::RefCell<Vec<PathBuf>>,
-) -> Result<()> {
+pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &Inputs) -> Result<()> {
     // Check every output path before the (long) render, so a typo costs nothing. A part's
     // output is a part file whatever its name.
     let format = if args.tile.is_some() { Format::Exr } else { Format::of(&args.output)? };
@@ -678,7 +733,7 @@ fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
             path: input.scene.clone(),
             labels: loaded.places.materials.clone(),
             warnings: warnings.iter().map(|w| w.to_string()).collect(),
-            inputs: inputs.into_inner(),
+            inputs: inputs.into_inner().into_iter().map(|(p, _)| p).collect(),
             name: loaded.name,
             scene: loaded.scene,
             pipeline: loaded.pipeline,
@@ -708,7 +763,7 @@ fn export(registry: &Registry, args: ExportArgs) -> Result<()> {
     let folder = args.output.parent().filter(|p| !p.as_os_str().is_empty()).map(Path::to_path_buf).unwrap_or_default();
     for (name, k) in &e.textures {
         let t = &loaded.scene.textures[*k];
-        let png = crate::output::encode_png(t.width, t.height, &t.pixels)?;
+        let png = crate::output::encode_png(t.width, t.height, &t.linear_pixels())?;
         crate::output::write_atomic(&folder.join(name), &png).with_context(|| format!("writing {name}"))?;
     }
     crate::output::write_atomic(&args.output, e.text.as_bytes())

@@ -15,10 +15,11 @@ use crate::app::{RenderArgs, render_recording};
 /// a copy and rename it over the file) is one change, not several.
 const SETTLE: Duration = Duration::from_millis(150);
 
-/// A file's size and modification time (`None` when it is gone).
-type Stamp = (u64, std::time::SystemTime);
+/// A file's size and modification time.
+pub(crate) type Stamp = (u64, std::time::SystemTime);
 
-fn stamp(path: &Path) -> Option<Stamp> {
+/// `path`'s size and modification time (`None` when it is gone).
+pub(crate) fn stamp(path: &Path) -> Option<Stamp> {
     let meta = std::fs::metadata(path).ok()?;
     Some((meta.len(), meta.modified().ok()?))
 }
@@ -52,9 +53,14 @@ pub fn watch(registry: &Registry, args: RenderArgs) -> Result<()> {
             Ok(()) => {}
             Err(e) => eprintln!("error: {e:#}\n(the last image is kept; fix the file and save it again)"),
         }
-        let mut files: Vec<PathBuf> = inputs.into_inner().iter().map(|p| absolute(p)).collect();
-        files.sort();
-        files.dedup();
+        // Each file with what it was just before it was read: a save made during the render
+        // shows as a change below, and renders again (the image always ends up matching the
+        // files' last state).
+        let mut read: Vec<(PathBuf, Option<Stamp>)> =
+            inputs.into_inner().into_iter().map(|(p, s)| (absolute(&p), s)).collect();
+        read.sort();
+        read.dedup_by(|a, b| a.0 == b.0);
+        let files: Vec<PathBuf> = read.iter().map(|(p, _)| p.clone()).collect();
         // Folders, not files: an editor that saves by renaming a new file over the old one
         // replaces what a watch on the file itself would follow.
         for file in &files {
@@ -67,11 +73,14 @@ pub fn watch(registry: &Registry, args: RenderArgs) -> Result<()> {
                 folders.push(folder.to_path_buf());
             }
         }
+        let changed = || read.iter().find(|(f, s)| stamp(f) != *s).map(|(f, _)| f.clone());
+        if let Some(f) = changed() {
+            eprintln!("{} changed during the render: rendering again", f.display());
+            continue;
+        }
         eprintln!("watching {} file(s) for changes; Ctrl-C to stop", files.len());
-        // What the files were when they were read: an event (the watcher also reports files
-        // being opened, as the render itself does) counts only if a file's size or modification
-        // time moved since.
-        let read_as: Vec<Option<Stamp>> = files.iter().map(|f| stamp(f)).collect();
+        // An event (the watcher also reports files being opened, as the render itself does)
+        // counts only if a file's size or modification time moved since it was read.
         loop {
             let events = match rx.recv().context("the file watcher stopped")? {
                 Ok(events) => events,
@@ -83,8 +92,8 @@ pub fn watch(registry: &Registry, args: RenderArgs) -> Result<()> {
             if !events.iter().any(|e| files.contains(&absolute(&e.path))) {
                 continue;
             }
-            if let Some(i) = (0..files.len()).find(|&i| stamp(&files[i]) != read_as[i]) {
-                eprintln!("{} changed: rendering again", files[i].display());
+            if let Some(f) = changed() {
+                eprintln!("{} changed: rendering again", f.display());
                 break;
             }
         }

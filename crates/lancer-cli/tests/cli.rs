@@ -600,6 +600,56 @@ fn watch_renders_again_on_save_keeps_the_last_image_on_a_broken_save_and_stops_o
 }
 
 #[test]
+fn regression_watch_renders_the_last_of_two_saves_made_during_a_slow_render() {
+    // Found in review: a save made while `watch` re-rendered was dropped (two saves, one render,
+    // the image showed the intermediate file, nothing said so).
+    let dir = tempfile::tempdir().unwrap();
+    let glass = std::fs::read_to_string(scene("glass.toml")).unwrap();
+    let (a, b) = (
+        glass.replace("background = [", "background = [0.9, 0.1, 0.1] # was ["),
+        glass.replace("background = [", "background = [0.1, 0.1, 0.9] # was ["),
+    );
+    // A render slow enough for both saves to land during it.
+    let flags = ["--width", "640", "--samples", "64", "-q"];
+    let mut args = vec!["render", "b.toml", "-o", "want.png"];
+    std::fs::write(dir.path().join("b.toml"), &b).unwrap();
+    args.extend(flags);
+    let start = std::time::Instant::now();
+    let o = lancer(dir.path(), &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let render_time = start.elapsed();
+    let want = std::fs::read(dir.path().join("want.png")).unwrap();
+    std::fs::write(dir.path().join("s.toml"), &glass).unwrap();
+    let log = std::fs::File::create(dir.path().join("log.txt")).unwrap();
+    let mut watch = vec!["watch", "s.toml", "-o", "out.png"];
+    watch.extend(flags);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lancer"))
+        .args(&watch)
+        .current_dir(dir.path())
+        .stderr(log)
+        .spawn()
+        .expect("lancer runs");
+    let log = || std::fs::read_to_string(dir.path().join("log.txt")).unwrap();
+    // Both saves in the first half of the first render (which reads the scene at once).
+    std::thread::sleep(render_time / 8);
+    std::fs::write(dir.path().join("s.toml"), &a).unwrap();
+    std::thread::sleep(render_time / 8);
+    std::fs::write(dir.path().join("s.toml"), &b).unwrap();
+    let mut done = false;
+    for _ in 0..600 {
+        if std::fs::read(dir.path().join("out.png")).is_ok_and(|i| i == want) && log().contains("watching") {
+            done = true;
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let _ = Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
+    let _ = child.wait();
+    assert!(done, "the image never matched the file's last state; log:\n{}", log());
+    assert!(log().contains("changed during the render: rendering again"), "{}", log());
+}
+
+#[test]
 fn regression_a_model_file_replaces_only_what_it_sets() {
     // models/blinn.toml swaps the highlight: the showcase keeps its transmissive shadows and
     // depth (before, the file's own shadows and depth replaced them: 13,592 diffuse pixels moved).

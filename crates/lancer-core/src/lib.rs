@@ -10,12 +10,14 @@ pub mod material;
 pub mod optics;
 pub mod rays;
 pub mod scene;
+pub mod texture;
 
 pub use camera::Camera;
 pub use frame::{Frame, Layer, RenderStats, SystemTimes};
 pub use glam::Vec3;
-pub use material::{Light, Material, Pattern, Texture};
+pub use material::{Light, Material, Pattern};
 pub use scene::{ImageSettings, MaterialOf, Meta, Scene, Transform};
+pub use texture::{Texels, Texture, srgb_decode};
 
 /// A linear RGB colour (no gamma), stored as a `Vec3`.
 pub type Rgb = Vec3;

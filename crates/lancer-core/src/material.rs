@@ -25,33 +25,6 @@ pub enum Pattern {
     },
 }
 
-/// A texture image, linear RGB, row 0 at the top.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Texture {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// `width * height` linear colours.
-    pub pixels: Vec<Vec3>,
-}
-
-impl Texture {
-    /// Bilinear lookup at `(u, v)`, wrapping around; `v = 0` is the image's bottom row.
-    pub fn sample(&self, u: f32, v: f32) -> Vec3 {
-        let (w, h) = (self.width as i64, self.height as i64);
-        let x = u.rem_euclid(1.0) * w as f32 - 0.5;
-        let y = (1.0 - v.rem_euclid(1.0)) * h as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let at = |i: i64, j: i64| self.pixels[(j.rem_euclid(h) * w + i.rem_euclid(w)) as usize];
-        let (i, j) = (x0 as i64, y0 as i64);
-        let top = at(i, j).lerp(at(i + 1, j), fx);
-        let bottom = at(i, j + 1).lerp(at(i + 1, j + 1), fx);
-        top.lerp(bottom, fy)
-    }
-}
-
 /// A material of the handout's model. Every factor is in [0, 1] except `n`, in [1, 2.5].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {

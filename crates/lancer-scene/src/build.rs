@@ -11,8 +11,10 @@ use lancer_shapes::{CsgNode, CsgOp, Mesh, MeshError, Shape};
 use toml::Spanned;
 
 use crate::doc::{
-    ColorDoc, MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, OperandDoc, PatternDoc, Scale, SceneDoc,
+    ColorDoc, MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, ObjectDoc, ObjectsDoc, OperandDoc, PatternDoc, Scale,
+    SceneDoc,
 };
+use crate::error::Lines;
 use crate::{LoadError, LoadErrorKind, Place, Warning};
 
 /// A loaded scene file: the scene and the lighting model its `[model]` describes.
@@ -46,14 +48,29 @@ pub struct Places {
     pub chosen_terms: bool,
 }
 
+#[derive(Clone, Copy)]
 struct Ctx<'a> {
     file: &'a str,
+    /// The whole file.
     src: &'a str,
+    /// Its line table, built once.
+    lines: &'a Lines,
+    /// Where in `src` the text the spans count from starts (a batch of objects is read on its
+    /// own).
+    offset: usize,
 }
 
-impl Ctx<'_> {
+impl<'a> Ctx<'a> {
+    fn new(file: &'a str, src: &'a str, lines: &'a Lines) -> Ctx<'a> {
+        Ctx { file, src, lines, offset: 0 }
+    }
+
+    fn shifted(&self, span: Range<usize>) -> Range<usize> {
+        span.start + self.offset..span.end + self.offset
+    }
+
     fn place(&self, span: Range<usize>) -> Place {
-        Place::of(self.file, self.src, span.start)
+        self.lines.place(self.file, self.src, self.offset + span.start)
     }
 
     fn warn(&self, span: Range<usize>, message: String) -> Warning {
@@ -61,17 +78,22 @@ impl Ctx<'_> {
     }
 
     fn err(&self, span: Range<usize>, kind: LoadErrorKind) -> LoadError {
-        LoadError::at(self.file, self.src, Some(span), kind)
+        LoadError::located(self.file, self.src, self.lines, Some(self.shifted(span)), kind)
     }
 
     fn syntax(&self, e: toml::de::Error) -> LoadError {
         let message = e.message().trim_end();
-        let span = e.span().map(|span| back_to_the_line_it_belongs_to(self.src, span, message));
+        let span = e.span().map(|span| back_to_the_line_it_belongs_to(self.src, self.shifted(span), message));
         let mut message = with_did_you_mean(message);
         if message.starts_with("missing comma between array elements") {
             message.push_str(", or the `]` that closes the array");
         }
-        LoadError::at(self.file, self.src, span, LoadErrorKind::Syntax(message))
+        LoadError::located(self.file, self.src, self.lines, span, LoadErrorKind::Syntax(message))
+    }
+
+    /// The pass before the toml crate: nesting refused past its limit, objects found.
+    fn scan(&self, batches: bool) -> Result<crate::scan::Layout, LoadError> {
+        crate::scan::scan(self.src, batches).map_err(|e| self.err(e.span, LoadErrorKind::Syntax(e.message)))
     }
 }
 
@@ -86,28 +108,22 @@ fn back_to_the_line_it_belongs_to(src: &str, span: Range<usize>, message: &str) 
     if !(at_line_start && about_a_missing_closer) {
         return span;
     }
-    // The end of the previous line with code (comments and blank lines skipped).
-    let before = &src[..start];
-    let mut end = None;
-    for (offset, line) in line_starts(before).into_iter().rev() {
+    // The end of the previous line with code (comments and blank lines skipped), line by line
+    // back from the error.
+    let mut end = start;
+    let found = loop {
+        let line_start = src[..end].rfind('\n').map_or(0, |i| i + 1);
+        let line = src[line_start..end].trim_end_matches(['\n', '\r']);
         let code = line.split('#').next().unwrap_or("").trim_end();
         if !code.trim().is_empty() {
-            end = Some(offset + code.len());
-            break;
+            break Some(line_start + code.len());
         }
-    }
-    end.map_or(span, |e| e..e)
-}
-
-/// Each line of `text` with its byte offset.
-fn line_starts(text: &str) -> Vec<(usize, &str)> {
-    let mut out = Vec::new();
-    let mut offset = 0;
-    for line in text.split_inclusive('\n') {
-        out.push((offset, line.trim_end_matches(['\n', '\r'])));
-        offset += line.len();
-    }
-    out
+        if line_start == 0 {
+            break None;
+        }
+        end = line_start - 1;
+    };
+    found.map_or(span, |e| e..e)
 }
 
 /// serde's "unknown field `shiny`, expected one of `color`, ..." with the nearest known name.
@@ -137,19 +153,90 @@ pub fn load_scene(src: &str, file: &str, registry: &Registry) -> Result<Loaded, 
     load_scene_with(src, file, registry, &|path: &str| Err(format!("cannot read `{path}`: this loader reads no files")))
 }
 
+/// How much a scene's files may cost to load: past these, a located error says what to raise.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// The most pixels all textures may hold together (`--max-texture-pixels`).
+    pub max_texture_pixels: u64,
+    /// The most triangles the scene's meshes may have together (`--max-triangles`), counted as
+    /// fanned from their faces (a polygon of k corners is k - 2), each mesh file once however
+    /// many objects share it. A file past it is refused at the face that crosses it, before
+    /// any of its triangles is stored.
+    pub max_triangles: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits { max_texture_pixels: crate::texture::MAX_TEXTURE_PIXELS, max_triangles: MAX_TRIANGLES }
+    }
+}
+
+/// [`Limits::max_triangles`] unless raised: ten times the largest common test meshes (the
+/// Stanford dragon and Buddha are about 10⁶ triangles), about 0.7 GB of mesh at the 70 bytes a
+/// triangle a loaded mesh takes, well within the 2 GB a large scene may use.
+pub const MAX_TRIANGLES: usize = 10_000_000;
+
+/// `src` with the byte ranges `blank` made spaces (newlines kept): the same offsets, lines and
+/// columns, without them.
+fn blanked(src: &str, blank: &[Range<usize>]) -> String {
+    let mut out = String::with_capacity(src.len());
+    let mut at = 0;
+    for r in blank {
+        out.push_str(&src[at..r.start]);
+        for c in src[r.clone()].chars() {
+            if c == '\n' {
+                out.push('\n');
+            } else {
+                out.extend(std::iter::repeat_n(' ', c.len_utf8()));
+            }
+        }
+        at = r.end;
+    }
+    out.push_str(&src[at..]);
+    out
+}
+
 /// Loads the scene file `file` whose text is `src`, reading the files it refers to through
-/// `resolve`.
+/// `resolve`, within the default [`Limits`].
 pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Resolver<'_>) -> Result<Loaded, LoadError> {
-    let cx = Ctx { file, src };
-    let doc: SceneDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
+    load_scene_within(src, file, registry, resolve, &Limits::default())
+}
+
+/// [`load_scene_with`] within `limits`.
+pub fn load_scene_within(
+    src: &str,
+    file: &str,
+    registry: &Registry,
+    resolve: Resolver<'_>,
+    limits: &Limits,
+) -> Result<Loaded, LoadError> {
+    let lines = Lines::new(src);
+    let cx = Ctx::new(file, src, &lines);
+    let layout = cx.scan(true)?;
+    // Batches of `[[objects]]` are read one after the other, after the rest of the file (read
+    // with them blanked out, so its spans are the file's): the toml crate's document of the
+    // whole file would take some 40 bytes per byte of it.
+    let doc: SceneDoc = if layout.object_batches.is_empty() {
+        toml::from_str(src)
+    } else {
+        toml::from_str(&blanked(src, &layout.object_batches))
+    }
+    .map_err(|e| cx.syntax(e))?;
     let pipeline = match &doc.model {
         Some(m) => build_pipeline(&cx, m, registry, None)?,
         None => registry.default_pipeline(),
     };
     let mut world = hecs::World::new();
 
-    let mut textures = Textures { list: Vec::new(), by_path: HashMap::new(), resolve };
-    let mut meshes = Meshes::default();
+    let mut textures = Textures {
+        list: Vec::new(),
+        by_path: HashMap::new(),
+        by_contents: HashMap::new(),
+        resolve,
+        used: 0,
+        budget: limits.max_texture_pixels,
+    };
+    let mut meshes = Meshes { by_path: HashMap::new(), triangles: 0, limit: limits.max_triangles };
     let mut warnings = Vec::new();
     let mut places = Places {
         camera: Some(cx.place(doc.camera.span())),
@@ -159,8 +246,8 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
     let mut named: HashMap<&str, hecs::Entity> = HashMap::new();
     for (name, m) in &doc.materials {
         let m = material(&cx, m, &mut textures, &mut warnings)?;
-        named.insert(name, world.spawn((m,)));
-        places.materials.push(name.clone());
+        named.insert(name.get_ref(), world.spawn((m,)));
+        places.materials.push(name.get_ref().clone());
     }
     for l in &doc.lights {
         places.lights.push(cx.place(l.span()));
@@ -174,7 +261,7 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
         });
     }
     let mut used: std::collections::HashSet<&str> = std::collections::HashSet::new();
-    for o in &doc.objects {
+    let mut object = |cx: &Ctx<'_>, o: &Spanned<ObjectDoc>| -> Result<(), LoadError> {
         places.objects.push(cx.place(o.span()));
         let obj = o.get_ref();
         let fields = ShapeFields {
@@ -200,25 +287,26 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
                     return Err(cx.err(span, LoadErrorKind::Syntax(format!("`{key}` does not apply to a mesh"))));
                 }
             }
-            Shape::Mesh(meshes.load(&cx, path, textures.resolve, &mut warnings)?)
+            Shape::Mesh(meshes.load(cx, path, textures.resolve, &mut warnings)?)
         } else {
-            build_shape(&cx, &fields)?
+            build_shape(cx, &fields)?
         };
         let mat = match obj.material.as_ref().map(|m| (m.span(), m.get_ref())) {
             None => None,
             Some((_, MaterialRef::Inline(m))) => {
-                let m = material(&cx, m, &mut textures, &mut warnings)?;
+                let m = material(cx, m, &mut textures, &mut warnings)?;
                 places.materials.push(format!("object {}", places.objects.len()));
                 Some(world.spawn((m,)))
             }
             Some((span, MaterialRef::Named(name))) => Some(
                 *named
-                    .get(name.as_str())
-                    .inspect(|_| {
-                        used.insert(name.as_str());
+                    .get_key_value(name.as_str())
+                    .map(|(&key, entity)| {
+                        used.insert(key);
+                        entity
                     })
                     .ok_or_else(|| {
-                        let known: Vec<String> = doc.materials.keys().cloned().collect();
+                        let known: Vec<String> = doc.materials.keys().map(|k| k.get_ref().clone()).collect();
                         cx.err(
                             span,
                             LoadErrorKind::UnknownMaterial {
@@ -242,6 +330,17 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
             Some(m) => world.spawn((shape, transform, MaterialOf(m))),
             None => world.spawn((shape, transform)),
         };
+        Ok(())
+    };
+    for o in &doc.objects {
+        object(&cx, o)?;
+    }
+    for batch in &layout.object_batches {
+        let cx = Ctx { offset: batch.start, ..cx };
+        let doc: ObjectsDoc = toml::from_str(&src[batch.clone()]).map_err(|e| cx.syntax(e))?;
+        for o in &doc.objects {
+            object(&cx, o)?;
+        }
     }
 
     let cam = doc.camera.get_ref();
@@ -253,12 +352,13 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
         background: Vec3::from(doc.image.background),
         samples: doc.image.samples,
     };
-    for name in doc.materials.keys().filter(|n| !used.contains(n.as_str())) {
-        // Material names carry no span: the table's header or key is found in the text.
-        let at = [format!("[materials.{name}]"), format!("materials.{name}"), format!("{name} =")]
-            .iter()
-            .find_map(|k| src.find(k.as_str()))
-            .unwrap_or(0);
+    for key in doc.materials.keys().filter(|n| !used.contains(n.get_ref().as_str())) {
+        // At the table's header (`[materials.NAME]`) or the dotted key (`materials.NAME = ...`)
+        // when it is written so, else at the name.
+        let at = key.span().start;
+        let before = &src[..at];
+        let at = ["[materials.", "materials."].iter().find(|p| before.ends_with(*p)).map_or(at, |p| at - p.len());
+        let name = key.get_ref();
         warnings.push(cx.warn(at..at, format!("material `{name}` is defined but no object uses it")));
     }
     let meta = Meta { title: doc.meta.title, description: doc.meta.description };
@@ -268,7 +368,9 @@ pub fn load_scene_with(src: &str, file: &str, registry: &Registry, resolve: Reso
 /// Loads a model file (the keys of `[model]` at top level) on its own: what it leaves out has
 /// its default.
 pub fn load_model(src: &str, file: &str, registry: &Registry) -> Result<Pipeline, LoadError> {
-    let cx = Ctx { file, src };
+    let lines = Lines::new(src);
+    let cx = Ctx::new(file, src, &lines);
+    cx.scan(false)?;
     let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
     build_pipeline(&cx, &doc, registry, None)
 }
@@ -277,7 +379,9 @@ pub fn load_model(src: &str, file: &str, registry: &Registry) -> Result<Pipeline
 /// `shadows`, `max_depth`), so a file that swaps the highlight leaves the scene's shadows and
 /// depth alone.
 pub fn load_model_over(src: &str, file: &str, registry: &Registry, base: Pipeline) -> Result<Pipeline, LoadError> {
-    let cx = Ctx { file, src };
+    let lines = Lines::new(src);
+    let cx = Ctx::new(file, src, &lines);
+    cx.scan(false)?;
     let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
     build_pipeline(&cx, &doc, registry, Some(base))
 }
@@ -423,9 +527,12 @@ fn vec3(v: [Num; 3]) -> Vec3 {
 }
 
 /// Meshes loaded so far, each file once (objects that share a file share the mesh).
-#[derive(Default)]
 struct Meshes {
     by_path: HashMap<String, std::sync::Arc<Mesh>>,
+    /// Their triangles, as fanned from their faces.
+    triangles: usize,
+    /// The most they may have together ([`Limits::max_triangles`]).
+    limit: usize,
 }
 
 impl Meshes {
@@ -444,9 +551,14 @@ impl Meshes {
         if bytes.starts_with(&[0xFE, 0xFF]) || bytes.starts_with(&[0xFF, 0xFE]) {
             return Err(bad("the file is UTF-16 text; save it as UTF-8 or ASCII".into()));
         }
-        let obj = crate::obj::parse(&bytes)
-            .map_err(|e| bad(format!("not a readable OBJ file (line {}: {})", e.line, e.message)))?;
+        let budget = crate::obj::Budget { limit: self.limit, earlier: self.triangles };
+        let obj = crate::obj::parse(&bytes, budget).map_err(|e| match e.column {
+            // Past the budget: where in the OBJ file, and what to raise.
+            Some(column) => bad(format!("{}:{}:{column}: {}", path.get_ref(), e.line, e.message)),
+            None => bad(format!("not a readable OBJ file (line {}: {})", e.line, e.message)),
+        })?;
         drop(bytes);
+        self.triangles += obj.triangles.len();
         if let Some(line) = obj.mixed {
             warnings.push(cx.warn(
                 path.span(),
@@ -541,13 +653,16 @@ fn one_index(obj: crate::obj::Obj) -> (Vec<Vec3>, Vec<Vec3>, Vec<glam::Vec2>, Ve
 /// Texture images loaded so far, each file once.
 struct Textures<'r> {
     list: Vec<Texture>,
+    /// By the path as the scene wrote it.
     by_path: HashMap<String, u32>,
+    /// By the file's contents (their hash and length): the same file named two ways
+    /// (`a.png`, `./a.png`) or copied is decoded once.
+    by_contents: HashMap<(u64, usize), u32>,
     resolve: Resolver<'r>,
-}
-
-/// The sRGB transfer function undone: an encoded channel in [0, 1] to linear.
-fn srgb_decode(c: f32) -> f32 {
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    /// Pixels the textures loaded so far hold.
+    used: u64,
+    /// The most pixels they may hold together.
+    budget: u64,
 }
 
 impl Textures<'_> {
@@ -558,14 +673,23 @@ impl Textures<'_> {
         let bad =
             |msg: String| cx.err(path.span(), LoadErrorKind::Syntax(format!("texture `{}`: {msg}", path.get_ref())));
         let bytes = (self.resolve)(path.get_ref()).map_err(bad)?;
-        let img = image::load_from_memory(&bytes).map_err(|e| bad(e.to_string()))?;
-        // Float images (EXR) are linear already; 8- and 16-bit images are sRGB-encoded.
-        let linear = matches!(img.color(), image::ColorType::Rgb32F | image::ColorType::Rgba32F);
-        let rgb = img.into_rgb32f();
-        let decode = |c: f32| if linear { c } else { srgb_decode(c) };
-        let pixels = rgb.pixels().map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2]))).collect();
-        self.list.push(Texture { width: rgb.width(), height: rgb.height(), pixels });
-        let i = (self.list.len() - 1) as u32;
+        let key = {
+            use std::hash::{Hash, Hasher};
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            bytes.hash(&mut h);
+            (h.finish(), bytes.len())
+        };
+        let i = match self.by_contents.get(&key) {
+            Some(&i) => i,
+            None => {
+                let texture = crate::texture::decode(&bytes, self.used, self.budget).map_err(bad)?;
+                self.used += texture.width as u64 * texture.height as u64;
+                self.list.push(texture);
+                let i = (self.list.len() - 1) as u32;
+                self.by_contents.insert(key, i);
+                i
+            }
+        };
         self.by_path.insert(path.get_ref().clone(), i);
         Ok(i)
     }

@@ -135,11 +135,19 @@ pub struct SceneDoc {
     pub image: ImageDoc,
     pub camera: Spanned<CameraDoc>,
     pub model: Option<ModelDoc>,
+    /// By name; the name's span places the warning about an unused material.
     #[serde(default)]
-    pub materials: BTreeMap<String, MaterialDoc>,
+    pub materials: BTreeMap<Spanned<String>, MaterialDoc>,
     #[serde(default)]
     pub lights: Vec<Spanned<LightDoc>>,
     #[serde(default)]
+    pub objects: Vec<Spanned<ObjectDoc>>,
+}
+
+/// A batch of `[[objects]]` sections, read on its own (see `scan.rs`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectsDoc {
     pub objects: Vec<Spanned<ObjectDoc>>,
 }
 

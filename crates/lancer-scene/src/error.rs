@@ -74,17 +74,64 @@ pub struct Place {
     pub column: usize,
 }
 
-impl Place {
-    /// Where byte `at` of `src` is.
-    pub(crate) fn of(file: &str, src: &str, at: usize) -> Place {
-        let start = at.min(src.len());
-        let line_start = src[..start].rfind('\n').map_or(0, |i| i + 1);
+/// Bytes between two counts of characters in [`Lines`]: a column costs at most twice this many
+/// bytes counted, however long its line.
+const CHARS_EVERY: usize = 128;
+
+/// Where the lines of one text start, and how many characters come before every
+/// [`CHARS_EVERY`]-th byte: built once per text (one pass), so each place is a binary search and
+/// a short count, not a scan from the start of the file (which made loading quadratic in the
+/// number of objects).
+pub(crate) struct Lines {
+    /// The byte offset of each line's first byte (the first is 0).
+    starts: Vec<usize>,
+    /// `chars[k]`: the characters in the first `k * CHARS_EVERY` bytes.
+    chars: Vec<usize>,
+}
+
+impl Lines {
+    pub(crate) fn new(src: &str) -> Lines {
+        let bytes = src.as_bytes();
+        let mut starts = vec![0];
+        starts.extend(bytes.iter().enumerate().filter(|&(_, &b)| b == b'\n').map(|(i, _)| i + 1));
+        let mut chars = Vec::with_capacity(bytes.len() / CHARS_EVERY + 1);
+        let mut total = 0;
+        chars.push(0);
+        for block in bytes.chunks(CHARS_EVERY) {
+            total += char_starts(block);
+            chars.push(total);
+        }
+        Lines { starts, chars }
+    }
+
+    /// The 1-based line and the byte offset of the start of the line holding byte `at`.
+    fn line_of(&self, at: usize) -> (usize, usize) {
+        let line = self.starts.partition_point(|&s| s <= at);
+        (line, self.starts[line - 1])
+    }
+
+    /// The characters in the first `at` bytes of `src` (`at` on a character boundary).
+    fn chars_before(&self, src: &str, at: usize) -> usize {
+        let block = at / CHARS_EVERY;
+        self.chars[block] + char_starts(&src.as_bytes()[block * CHARS_EVERY..at])
+    }
+
+    /// Where byte `at` of `src` (the text this table was built from) is: the same line and
+    /// column (in characters) as counting from the start of the file.
+    pub(crate) fn place(&self, file: &str, src: &str, at: usize) -> Place {
+        let at = at.min(src.len());
+        let (line, line_start) = self.line_of(at);
         Place {
             file: file.to_owned(),
-            line: src[..start].matches('\n').count() + 1,
-            column: src[line_start..start].chars().count() + 1,
+            line,
+            column: self.chars_before(src, at) - self.chars_before(src, line_start) + 1,
         }
     }
+}
+
+/// The characters that start in `bytes` (every byte but UTF-8 continuation bytes).
+fn char_starts(bytes: &[u8]) -> usize {
+    bytes.iter().filter(|&&b| (b & 0xC0) != 0x80).count()
 }
 
 impl std::fmt::Display for Place {
@@ -114,11 +161,24 @@ impl std::fmt::Display for Warning {
 
 impl LoadError {
     /// An error at byte range `span` of `src` (the start of the file when `None`).
+    #[cfg(test)]
     pub(crate) fn at(file: &str, src: &str, span: Option<Range<usize>>, kind: LoadErrorKind) -> LoadError {
+        LoadError::located(file, src, &Lines::new(src), span, kind)
+    }
+
+    /// An error at byte range `span` of `src` (the start of the file when `None`), placed
+    /// through `lines`, the text's line table.
+    pub(crate) fn located(
+        file: &str,
+        src: &str,
+        lines: &Lines,
+        span: Option<Range<usize>>,
+        kind: LoadErrorKind,
+    ) -> LoadError {
         let span = span.unwrap_or(0..0);
         let start = span.start.min(src.len());
-        let place = Place::of(file, src, start);
-        let line_start = src[..start].rfind('\n').map_or(0, |i| i + 1);
+        let place = lines.place(file, src, start);
+        let (_, line_start) = lines.line_of(start);
         let line_end = src[start..].find('\n').map_or(src.len(), |i| start + i);
         let source_line = src[line_start..line_end].trim_end_matches('\r').to_owned();
         let end = span.end.clamp(start, line_end);
@@ -158,6 +218,50 @@ impl std::error::Error for LoadError {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// How places were found before the line table: counting from the start of the file.
+    fn place_by_scanning(file: &str, src: &str, at: usize) -> Place {
+        let start = at.min(src.len());
+        let line_start = src[..start].rfind('\n').map_or(0, |i| i + 1);
+        Place {
+            file: file.to_owned(),
+            line: src[..start].matches('\n').count() + 1,
+            column: src[line_start..start].chars().count() + 1,
+        }
+    }
+
+    #[test]
+    fn regression_quadratic_loading_the_line_table_places_every_offset_as_scanning_did() {
+        // Multi-byte characters (2, 3 and 4 bytes), CRLF and LF endings, an empty line, a line
+        // longer than the table's character blocks, and a last line with no newline.
+        let long = "é".repeat(150) + "x" + &"a".repeat(300);
+        let texts = [
+            format!("a = 1\r\n# é ✓ 𝄞\r\n\r\nkey = \"日本語\"\n{long}\r\nlast = \"ß\""),
+            String::new(),
+            "\n".into(),
+            "no newline at all é".into(),
+            "\r\n\r\n𝄞".into(),
+        ];
+        for src in &texts {
+            let lines = Lines::new(src);
+            // Every offset on a character boundary (slicing elsewhere is not a place), and past the end.
+            for at in (0..=src.len() + 2).filter(|&at| at > src.len() || src.is_char_boundary(at)) {
+                assert_eq!(lines.place("f", src, at), place_by_scanning("f", src, at), "{src:?} at {at}");
+            }
+        }
+    }
+
+    #[test]
+    fn regression_quadratic_loading_errors_read_the_same_through_the_table() {
+        let src = "a = 1\r\n# é\r\nbad = [1, 2]\r\nlast";
+        let at = src.find("[1").unwrap();
+        let kind = || LoadErrorKind::Syntax("oops".into());
+        let e = LoadError::located("s.toml", src, &Lines::new(src), Some(at..at + 6), kind());
+        assert_eq!(e.to_string(), "s.toml:3:7: oops\n  |\n3 | bad = [1, 2]\n  |       ^^^^^^");
+        assert_eq!(e, LoadError::at("s.toml", src, Some(at..at + 6), kind()));
+        let e = LoadError::at("s.toml", src, Some(src.len()..src.len()), kind());
+        assert_eq!((e.line, e.column, e.source_line.as_str()), (4, 5, "last"));
+    }
 
     #[test]
     fn locates_line_and_column_in_characters() {

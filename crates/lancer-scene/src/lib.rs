@@ -7,10 +7,16 @@ mod check;
 mod doc;
 mod error;
 mod obj;
+mod scan;
+mod texture;
 
-pub use build::{Loaded, Places, Resolver, load_model, load_model_over, load_scene, load_scene_with};
+pub use build::{
+    Limits, Loaded, MAX_TRIANGLES, Places, Resolver, load_model, load_model_over, load_scene, load_scene_with,
+    load_scene_within,
+};
 pub use check::check;
 pub use error::{LoadError, LoadErrorKind, Place, Warning};
+pub use texture::MAX_TEXTURE_PIXELS;
 
 #[cfg(test)]
 mod tests;

@@ -6,6 +6,11 @@
 //! triangle on top of the text; this reader stores 12 bytes per triangle and index kind as it
 //! goes, and reads the lines of a large file on every thread. Materials (`mtllib`, `usemtl`),
 //! groups, smoothing groups, points, lines and curves are left out: the scene gives materials.
+//!
+//! Memory is bounded by the input and a triangle budget: the counting pass (already needed to
+//! number each chunk's elements) counts each face's triangles too, so a file past the budget is
+//! refused before anything is stored; a face's corners are fanned as they are read (no list of
+//! a line's corners), and each chunk's arrays are reserved at their exact size.
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -38,7 +43,35 @@ pub(crate) struct Obj {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct ObjError {
     pub line: usize,
+    /// The column (from 1, in characters) for an error about a place in the line: the corner
+    /// that goes past the triangle budget.
+    pub column: Option<usize>,
     pub message: String,
+}
+
+impl ObjError {
+    fn at(line: usize, message: String) -> ObjError {
+        ObjError { line, column: None, message }
+    }
+}
+
+/// How many triangles a file may fan into: the scene's `limit`, of which `earlier` meshes took
+/// some.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Budget {
+    pub limit: usize,
+    pub earlier: usize,
+}
+
+impl Budget {
+    /// No bound but the 32-bit indices'.
+    #[cfg(test)]
+    const NONE: Budget = Budget { limit: usize::MAX, earlier: 0 };
+
+    /// The triangles left for this file.
+    fn left(&self) -> usize {
+        self.limit.saturating_sub(self.earlier)
+    }
 }
 
 /// A line's statement, as far as meshes care.
@@ -80,6 +113,9 @@ struct Counts {
     positions: usize,
     normals: usize,
     uvs: usize,
+    /// Triangles its faces fan into (a face of k ≥ 3 corners is k - 2), if its corners are
+    /// good.
+    triangles: usize,
 }
 
 impl Counts {
@@ -89,8 +125,19 @@ impl Counts {
             positions: self.positions + o.positions,
             normals: self.normals + o.normals,
             uvs: self.uvs + o.uvs,
+            triangles: self.triangles + o.triangles,
         }
     }
+}
+
+/// The words of a line after its keyword: a face's corners.
+fn words(rest: &[u8]) -> impl Iterator<Item = &[u8]> {
+    rest.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty())
+}
+
+/// The triangles a face whose words after `f` are `rest` fans into.
+fn face_triangles(rest: &[u8]) -> usize {
+    words(rest).count().saturating_sub(2)
 }
 
 /// Splits `bytes` into about `parts` runs of whole lines.
@@ -116,11 +163,12 @@ fn count(chunk: &[u8]) -> Counts {
     let mut c = Counts::default();
     for line in chunk.split(|&b| b == b'\n') {
         c.lines += 1;
-        match statement(uncommented(line)).0 {
-            Statement::Position => c.positions += 1,
-            Statement::Normal => c.normals += 1,
-            Statement::Uv => c.uvs += 1,
-            Statement::Face | Statement::Other => {}
+        match statement(uncommented(line)) {
+            (Statement::Position, _) => c.positions += 1,
+            (Statement::Normal, _) => c.normals += 1,
+            (Statement::Uv, _) => c.uvs += 1,
+            (Statement::Face, rest) => c.triangles += face_triangles(rest),
+            (Statement::Other, _) => {}
         }
     }
     // `split` yields one piece after a final newline: not a line of the file.
@@ -217,16 +265,58 @@ fn index(field: &[u8], before: usize, total: usize, what: &str) -> Result<Option
     Ok(Some(at as u32))
 }
 
+/// Where the file whose chunks hold `counts` (their first elements numbered `starts`) goes past
+/// `budget`: the line and the column of the corner that makes one triangle too many.
+fn over_budget(pieces: &[&[u8]], counts: &[Counts], starts: &[Counts], budget: Budget) -> ObjError {
+    let left = budget.left();
+    let k = (0..counts.len()).find(|&k| starts[k].triangles + counts[k].triangles > left).unwrap_or(counts.len() - 1);
+    let mut before = starts[k].triangles;
+    let mut line = starts[k].lines;
+    let mut column = None;
+    for (j, raw) in pieces[k].split(|&b| b == b'\n').enumerate() {
+        line = starts[k].lines + j + 1;
+        let (what, rest) = statement(uncommented(raw));
+        let triangles = if what == Statement::Face { face_triangles(rest) } else { 0 };
+        if before + triangles > left {
+            // Its corners after the keyword: corner `left - before + 2` (from 0) closes the
+            // triangle one past the budget.
+            let corner = words(rest).nth(left - before + 2);
+            let offset = corner.map_or(0, |c| c.as_ptr() as usize - raw.as_ptr() as usize);
+            column = Some(raw[..offset].iter().filter(|&&b| (b & 0xC0) != 0x80).count() + 1);
+            break;
+        }
+        before += triangles;
+    }
+    let earlier = if budget.earlier > 0 {
+        format!(" (the meshes before this one have {})", budget.earlier)
+    } else {
+        String::new()
+    };
+    ObjError {
+        line,
+        column,
+        message: format!(
+            "too many triangles: the face's corner here makes triangle {} of the scene's meshes{earlier}: expected at \
+             most {} triangles; raise it with --max-triangles",
+            budget.limit.saturating_add(1),
+            budget.limit
+        ),
+    }
+}
+
 /// Reads one chunk whose first line is line `at.lines + 1` of the file and whose elements are
-/// numbered from `at`; `total` is the whole file's counts.
-fn read(chunk: &[u8], at: Counts, total: Counts) -> Result<Part, ObjError> {
+/// numbered from `at`; `mine` is its own counts, `total` the whole file's.
+fn read(chunk: &[u8], at: Counts, mine: Counts, total: Counts) -> Result<Part, ObjError> {
     let mut part = Part::default();
     let o = &mut part.obj;
+    o.positions.reserve_exact(mine.positions);
+    o.normals.reserve_exact(mine.normals);
+    o.uvs.reserve_exact(mine.uvs);
+    o.triangles.reserve_exact(mine.triangles);
     let (mut positions, mut normals, mut uvs) = (at.positions, at.normals, at.uvs);
-    let mut corners: Vec<([u32; 3], Kind)> = Vec::new();
     for (k, raw) in chunk.split(|&b| b == b'\n').enumerate() {
         let line = at.lines + k + 1;
-        let fail = |message: String| ObjError { line, message };
+        let fail = |message: String| ObjError::at(line, message);
         let (what, rest) = statement(uncommented(raw));
         match what {
             Statement::Position => {
@@ -266,8 +356,13 @@ fn read(chunk: &[u8], at: Counts, total: Counts) -> Result<Part, ObjError> {
                 uvs += 1;
             }
             Statement::Face => {
-                corners.clear();
-                for token in rest.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty()) {
+                // A fan from the first corner (convex polygons, as exporters write them), made
+                // as the corners are read: the first, the one before and the kind to compare.
+                let mut first: Option<([u32; 3], Kind)> = None;
+                let mut previous = [0u32; 3];
+                let mut corners = 0usize;
+                let mut differs = false;
+                for token in words(rest) {
                     let corner = || String::from_utf8_lossy(token);
                     if token == b"\\" {
                         let message =
@@ -288,27 +383,38 @@ fn read(chunk: &[u8], at: Counts, total: Counts) -> Result<Part, ObjError> {
                     let p = index(pf, positions, total.positions, "vertex").map_err(fail)?.unwrap_or(0);
                     let t = index(tf, uvs, total.uvs, "texture coordinate").map_err(fail)?;
                     let n = index(nf, normals, total.normals, "normal").map_err(fail)?;
-                    corners.push(([p, t.unwrap_or(0), n.unwrap_or(0)], (t.is_some(), n.is_some())));
+                    let corner = [p, t.unwrap_or(0), n.unwrap_or(0)];
+                    let kind = (t.is_some(), n.is_some());
+                    // The kind every corner is compared with: the chunk's first face's, or this
+                    // face's first corner's when this is the first face.
+                    let (c0, kind0) = *first.get_or_insert((corner, kind));
+                    differs |= kind != part.first.map_or(kind0, |(k, _)| k);
+                    corners += 1;
+                    if corners >= 3 {
+                        o.triangles.push([c0[0], previous[0], p]);
+                        if kind0.0 {
+                            if o.uv_triangles.capacity() == 0 {
+                                o.uv_triangles.reserve_exact(mine.triangles);
+                            }
+                            o.uv_triangles.push([c0[1], previous[1], corner[1]]);
+                        }
+                        if kind0.1 {
+                            if o.normal_triangles.capacity() == 0 {
+                                o.normal_triangles.reserve_exact(mine.triangles);
+                            }
+                            o.normal_triangles.push([c0[2], previous[2], corner[2]]);
+                        }
+                    }
+                    previous = corner;
                 }
                 // Points and lines written as faces have no area: left out, as other renderers do.
-                if corners.len() < 3 {
+                if corners < 3 {
                     continue;
                 }
-                let kind = corners[0].1;
-                let (first_kind, _) = *part.first.get_or_insert((kind, line));
-                if part.mixed.is_none() && corners.iter().any(|c| c.1 != first_kind) {
+                let kind0 = first.map(|(_, k)| k).unwrap_or_default();
+                part.first.get_or_insert((kind0, line));
+                if part.mixed.is_none() && differs {
                     part.mixed = Some(line);
-                }
-                // A fan from the first corner (convex polygons, as exporters write them).
-                for j in 2..corners.len() {
-                    let tri = [corners[0].0, corners[j - 1].0, corners[j].0];
-                    o.triangles.push(tri.map(|c| c[0]));
-                    if kind.0 {
-                        o.uv_triangles.push(tri.map(|c| c[1]));
-                    }
-                    if kind.1 {
-                        o.normal_triangles.push(tri.map(|c| c[2]));
-                    }
                 }
             }
             Statement::Other => {}
@@ -319,17 +425,19 @@ fn read(chunk: &[u8], at: Counts, total: Counts) -> Result<Part, ObjError> {
 
 /// Reads an OBJ file. Chunks of lines are read on every thread; the result does not depend on
 /// how the file is cut (the same arrays, and the error of the earliest bad line).
-pub(crate) fn parse(bytes: &[u8]) -> Result<Obj, ObjError> {
+/// A file whose faces fan into more triangles than `budget` leaves is refused at the corner
+/// that goes past it, before any is stored.
+pub(crate) fn parse(bytes: &[u8], budget: Budget) -> Result<Obj, ObjError> {
     // About four chunks a thread for balance, none under 256 KiB.
-    parse_in(bytes, (bytes.len() / (256 << 10)).clamp(1, 4 * rayon::current_num_threads()))
+    parse_in(bytes, (bytes.len() / (256 << 10)).clamp(1, 4 * rayon::current_num_threads()), budget)
 }
 
 /// [`parse`] with the file cut into about `parts` chunks.
-fn parse_in(bytes: &[u8], parts: usize) -> Result<Obj, ObjError> {
+fn parse_in(bytes: &[u8], parts: usize, budget: Budget) -> Result<Obj, ObjError> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     if !bytes.contains(&b'\n') && bytes.contains(&b'\r') {
         let message = "the lines end with a carriage return alone (old Mac OS): save the file with LF or CRLF endings";
-        return Err(ObjError { line: 1, message: message.into() });
+        return Err(ObjError::at(1, message.into()));
     }
     let pieces = chunks(bytes, parts);
     let counts: Vec<Counts> = pieces.par_iter().map(|c| count(c)).collect();
@@ -341,15 +449,21 @@ fn parse_in(bytes: &[u8], parts: usize) -> Result<Obj, ObjError> {
     }
     // Indices are 32-bit: a file with more elements than that is refused before reading.
     if [total.positions, total.normals, total.uvs].iter().any(|&n| n >= u32::MAX as usize) {
-        return Err(ObjError { line: total.lines, message: "more than 4 billion vertices: too many to index".into() });
+        return Err(ObjError::at(total.lines, "more than 4 billion vertices: too many to index".into()));
     }
-    let read: Vec<Result<Part, ObjError>> =
-        pieces.par_iter().zip(starts.par_iter()).map(|(chunk, &at)| read(chunk, at, total)).collect();
+    if total.triangles > budget.left() {
+        return Err(over_budget(&pieces, &counts, &starts, budget));
+    }
+    let read: Vec<Result<Part, ObjError>> = pieces
+        .par_iter()
+        .zip(starts.par_iter().zip(counts.par_iter()))
+        .map(|(chunk, (&at, &mine))| read(chunk, at, mine, total))
+        .collect();
     // Each chunk stops at its own first bad line, so the first failing chunk has the file's.
     let parts = read.into_iter().collect::<Result<Vec<Part>, ObjError>>()?;
     let triangles: usize = parts.iter().map(|p| p.obj.triangles.len()).sum();
     if triangles >= u32::MAX as usize {
-        return Err(ObjError { line: total.lines, message: "more than 4 billion triangles: too many to index".into() });
+        return Err(ObjError::at(total.lines, "more than 4 billion triangles: too many to index".into()));
     }
     // The first face's kind is the file's; a chunk whose faces begin otherwise is mixed there.
     let kind = parts.iter().find_map(|p| p.first.map(|(k, _)| k));
@@ -402,7 +516,7 @@ mod tests {
 
     #[test]
     fn every_kind_of_line_is_read_as_other_renderers_read_it() {
-        let o = parse(SAMPLE.as_bytes()).unwrap();
+        let o = parse(SAMPLE.as_bytes(), Budget::NONE).unwrap();
         assert_eq!(o.positions.len(), 6);
         assert_eq!(o.positions[1], Vec3::new(1.0, 0.0, 0.0), "vertex colours ignored");
         assert_eq!(o.uvs[1], Vec2::new(1.0, 0.0), "a missing v is 0");
@@ -420,22 +534,22 @@ mod tests {
     fn the_result_does_not_depend_on_where_the_file_is_cut() {
         // Every cut of the sample into up to 40 chunks gives the same arrays as one chunk, and a
         // file with bad lines in several chunks always reports the first.
-        let whole = parse_in(SAMPLE.as_bytes(), 1).unwrap();
+        let whole = parse_in(SAMPLE.as_bytes(), 1, Budget::NONE).unwrap();
         for parts in 1..40 {
             assert_eq!(chunks(SAMPLE.as_bytes(), parts).concat(), SAMPLE.as_bytes());
-            assert_eq!(parse_in(SAMPLE.as_bytes(), parts).unwrap(), whole, "{parts} parts");
+            assert_eq!(parse_in(SAMPLE.as_bytes(), parts, Budget::NONE).unwrap(), whole, "{parts} parts");
         }
         let bad =
             "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".repeat(50) + "v 0 0 x\n" + &"f 1 2 3\n".repeat(50) + "v 0 y 0\n";
         for parts in 1..40 {
-            let e = parse_in(bad.as_bytes(), parts).unwrap_err();
+            let e = parse_in(bad.as_bytes(), parts, Budget::NONE).unwrap_err();
             assert_eq!((e.line, e.message.contains("found `x`")), (201, true), "{parts} parts: {e:?}");
         }
         let mixed = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n".to_owned()
             + &"f 1//1 2//1 3//1\n".repeat(30)
             + &"f 1 2 3\n".repeat(30);
         for parts in 1..40 {
-            assert_eq!(parse_in(mixed.as_bytes(), parts).unwrap().mixed, Some(35), "{parts} parts");
+            assert_eq!(parse_in(mixed.as_bytes(), parts, Budget::NONE).unwrap().mixed, Some(35), "{parts} parts");
         }
     }
 
@@ -458,10 +572,33 @@ mod tests {
             ("v 0 0 0\nf /1 1 1\n", 2, "needs a vertex index"),
             ("v 0 0 0\nvt 0 0\nf 1/2 1/1 1/1\n", 3, "texture coordinate 2, but there is 1"),
         ] {
-            let e = parse(text.as_bytes()).unwrap_err();
+            let e = parse(text.as_bytes(), Budget::NONE).unwrap_err();
             assert_eq!(e.line, line, "{text:?}: {e:?}");
             assert!(e.message.contains(message), "{text:?}: {}", e.message);
         }
+    }
+
+    #[test]
+    fn regression_a_face_past_the_triangle_budget_is_refused_at_its_corner_however_the_file_is_cut() {
+        // 300 quads (600 triangles), then a pentagon (3): with 601 allowed, its second triangle
+        // (closed by its fourth corner, at column 11) is one too many.
+        let file = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n".to_owned() + &"f 1 2 3 4\n".repeat(300) + "  f 1 2 3 4 1\n";
+        for parts in 1..40 {
+            let e = parse_in(file.as_bytes(), parts, Budget { limit: 601, earlier: 0 }).unwrap_err();
+            assert_eq!((e.line, e.column), (305, Some(11)), "{parts} parts: {e:?}");
+            assert!(e.message.contains("makes triangle 602 of the scene's meshes: expected at most 601"), "{e:?}");
+            // Earlier meshes take their share; what is left is exactly enough.
+            let e = parse_in(file.as_bytes(), parts, Budget { limit: 603, earlier: 2 }).unwrap_err();
+            assert_eq!((e.line, e.column), (305, Some(11)), "{parts} parts: {e:?}");
+            assert!(e.message.contains("(the meshes before this one have 2)"), "{e:?}");
+            let o = parse_in(file.as_bytes(), parts, Budget { limit: 605, earlier: 2 }).unwrap();
+            assert_eq!(o.triangles.len(), 603);
+            assert_eq!(o.triangles.capacity(), 603, "reserved at its exact size");
+        }
+        // A bad line before the face is not what a file over the budget is refused for: the
+        // budget is checked before the numbers are read (as the 4-billion bound).
+        let e = parse(b"v 0 0 0\nv 1 0 x\nv 0 1 0\nf 1 2 3 1 2\n", Budget { limit: 2, earlier: 0 }).unwrap_err();
+        assert_eq!((e.line, e.column), (4, Some(11)));
     }
 
     #[test]
@@ -477,8 +614,11 @@ mod tests {
     #[test]
     fn quirks_of_real_files_are_read_as_meant() {
         // A UTF-8 byte-order mark, homogeneous coordinates, vertex colours, `nan` normals.
-        let o =
-            parse(b"\xEF\xBB\xBFv 2 4 6 2\nv 1 0 0 0.1 0.2 0.3\nv 0 1 0\nvn nan nan nan\nvt 0 inf\nf 1 2 3\n").unwrap();
+        let o = parse(
+            b"\xEF\xBB\xBFv 2 4 6 2\nv 1 0 0 0.1 0.2 0.3\nv 0 1 0\nvn nan nan nan\nvt 0 inf\nf 1 2 3\n",
+            Budget::NONE,
+        )
+        .unwrap();
         assert_eq!(o.positions, [Vec3::new(1.0, 2.0, 3.0), Vec3::X, Vec3::Y]);
         assert_eq!((o.normals[0], o.uvs[0], o.replaced), (Vec3::ZERO, Vec2::ZERO, 2));
         assert_eq!(o.triangles, [[0, 1, 2]]);
@@ -486,10 +626,10 @@ mod tests {
 
     #[test]
     fn faces_indexed_differently_from_the_first_are_found_and_drop_normals() {
-        let o = parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 2 3\n").unwrap();
+        let o = parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 2 3\n", Budget::NONE).unwrap();
         assert_eq!(o.mixed, Some(6));
         assert!(o.normal_triangles.is_empty() && o.triangles.len() == 2);
-        let o = parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2 3//1\n").unwrap();
+        let o = parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2 3//1\n", Budget::NONE).unwrap();
         assert_eq!(o.mixed, Some(5), "corners of one face differing");
     }
 }

@@ -260,7 +260,7 @@ fn patterns_load_and_their_mistakes_are_located() {
     let src = format!("{CAMERA}[materials.m]\ncolor = {{ pattern = \"image\", path = \"ok.png\" }}\n");
     let l = crate::load_scene_with(&src, "s.toml", &Registry::with_builtins(), &resolve).unwrap();
     let t = &l.scene.textures[0];
-    assert!((t.pixels[0].x - 0.5029).abs() < 1e-3, "sRGB 188 is linear 0.503, got {}", t.pixels[0].x);
+    assert!((t.texel(0).x - 0.5029).abs() < 1e-3, "sRGB 188 is linear 0.503, got {}", t.texel(0).x);
     let src = format!("{CAMERA}[materials.m]\ncolor = {{ pattern = \"image\", path = \"bad.png\" }}\n");
     let e = match crate::load_scene_with(&src, "s.toml", &Registry::with_builtins(), &resolve) {
         Err(e) => e,
@@ -513,5 +513,197 @@ fn regression_pattern_scales_and_light_intensities_are_bounded() {
         let e = err(&src);
         assert_eq!(e.line, 6, "{bad}: {e}");
         assert!(e.to_string().contains("1000000"), "{bad}: {e}");
+    }
+}
+
+/// A scene of `n` spheres in `[[objects]]` tables, some indented, some after a comment with
+/// multi-byte characters, a CSG object with its operands in `[objects.a]` / `[objects.b]`
+/// subtables every 97th, `[[lights]]` halfway; with the (line, column) each object's table is at.
+fn many_objects(n: usize) -> (String, Vec<(usize, usize)>) {
+    use std::fmt::Write as _;
+    let mut src = format!("{CAMERA}[materials.m]\ncolor = [0.5, 0.5, 0.5]\n[materials.spare]\n");
+    let mut places = Vec::with_capacity(n);
+    for k in 0..n {
+        if k == n / 2 {
+            src.push_str("[[lights]]\nat = [0, 5, 0]\n");
+        }
+        if k % 7 == 3 {
+            src.push_str("# sphère n° ✓\n");
+        }
+        let indent = if k % 5 == 1 { "  " } else { "" };
+        places.push((src.matches('\n').count() + 1, indent.len() + 1));
+        if k % 97 == 0 {
+            let _ = write!(
+                src,
+                "{indent}[[objects]]\nshape = \"csg\"\nop = \"union\"\ntranslate = [{k}, 0, 0]\n\
+                 [objects.a]\nshape = \"sphere\"\n[objects.b]\nshape = \"cube\"\n"
+            );
+        } else {
+            let material = if k == n - 3 { "{ color = [2, 0, 0] }".to_owned() } else { "\"m\"".to_owned() };
+            let _ = write!(
+                src,
+                "{indent}[[objects]]\nshape = \"sphere\"\nmaterial = {material}\nscale = 0.25\ntranslate = [{}, 0.1, {}]\n",
+                k % 100,
+                k / 100
+            );
+        }
+    }
+    (src, places)
+}
+
+#[test]
+fn regression_quadratic_loading_20000_objects_are_placed_where_they_are_written() {
+    // Each object's place was found by counting lines from the start of the file: 10,000
+    // objects took 5 s to check. Read in batches now, each place is still its table's.
+    let n = 20_000;
+    let (src, expected) = many_objects(n);
+    let l = load_scene(&src, "s.toml", &Registry::with_builtins()).unwrap_or_else(|e| panic!("{e}"));
+    let got: Vec<(usize, usize)> = l.places.objects.iter().map(|p| (p.line, p.column)).collect();
+    assert_eq!(got.len(), n);
+    let wrong = got.iter().zip(&expected).position(|(g, e)| g != e);
+    assert_eq!(wrong, None, "first wrong place: {:?}", wrong.map(|k| (k, got[k], expected[k])));
+    assert_eq!(l.scene.world.query::<&Shape>().iter().count(), n);
+    // Warnings found in the last batch and in the rest of the file, at their places.
+    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    let bright = src.rfind("[2, 0, 0]").unwrap();
+    let (line, column) = (src[..bright].matches('\n').count() + 1, bright - src[..bright].rfind('\n').unwrap());
+    assert!(w.contains(&format!("warning: s.toml:{line}:{column}: a material colour above 1 (2): a surface reflects more light than it receives; the handout's colours are in [0, 1]")), "{w:?}");
+    let (line, column) = pos(&src, "[materials.spare]");
+    assert!(w.contains(&format!("warning: s.toml:{line}:{column}: material `spare` is defined but no object uses it")));
+    // The same file read whole (a quoted header: batches are not used) places everything alike.
+    let whole = format!("{src}[\"meta\"]\ntitle = \"t\"\n");
+    assert_eq!(crate::scan::scan(&whole, true).unwrap().object_batches, []);
+    let w2 = load_scene(&whole, "s.toml", &Registry::with_builtins()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((w2.places, w2.warnings), (l.places, l.warnings));
+    // An error in a late batch is placed in the file, with the source line.
+    let typo = src.replace("translate = [73, 0.1, 195]", "translate = [73, 0.1, 195]\nshiny = 1");
+    let e = err(&typo);
+    let (line, column) = pos(&typo, "shiny");
+    assert_eq!((e.line, e.column, e.source_line.as_str()), (line, column, "shiny = 1"), "{e}");
+    assert!(e.to_string().contains("unknown field `shiny`"), "{e}");
+}
+
+#[test]
+fn regression_unused_material_warnings_point_at_their_own_table() {
+    // The name was searched for in the text: `red =` was found inside `deep_red =`, and a quoted
+    // name not at all (the warning pointed at the start of the file).
+    let src = format!(
+        "{CAMERA}[materials]\ndeep_red = {{ color = [0.5, 0, 0] }}\nred = {{ color = [1, 0, 0] }}\n\
+         [materials.\"my mat\"]\ncolor = [0.2, 0.2, 0.2]\n[[objects]]\nshape = \"sphere\"\nmaterial = \"deep_red\"\n"
+    );
+    let l = load_scene(&src, "s.toml", &Registry::with_builtins()).unwrap_or_else(|e| panic!("{e}"));
+    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    // `red` starts the line after `deep_red`'s.
+    let red = (pos(&src, "deep_red = {").0 + 1, 1);
+    for (name, (line, column)) in [("red", red), ("my mat", pos(&src, "[materials.\"my mat\"]"))] {
+        let warning = format!("warning: s.toml:{line}:{column}: material `{name}` is defined but no object uses it");
+        assert!(w.contains(&warning), "{w:?}");
+    }
+}
+
+#[test]
+fn regression_a_polygon_past_the_triangle_budget_is_a_located_error() {
+    let polygon = |corners: usize| {
+        let mut s = String::from("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n# a long fan\nf");
+        for k in 0..corners {
+            s.push_str([" 1", " 2", " 3", " 4"][k % 4]);
+        }
+        s + "\n"
+    };
+    let files = |name: &str| -> Result<Vec<u8>, String> {
+        Ok(match name {
+            "big.obj" => polygon(1003).into_bytes(),
+            "600.obj" => polygon(602).into_bytes(),
+            "500.obj" => polygon(502).into_bytes(),
+            _ => return Err("no such file".into()),
+        })
+    };
+    let limits = crate::Limits { max_triangles: 1000, ..Default::default() };
+    let load = |paths: &[&str]| {
+        let mut src = CAMERA.to_owned();
+        for p in paths {
+            src += &format!("[[objects]]\nshape = \"mesh\"\npath = \"{p}\"\n");
+        }
+        let l = crate::load_scene_within(&src, "s.toml", &Registry::with_builtins(), &files, &limits);
+        (src, l)
+    };
+    // 1001 triangles: the corner that makes the 1001st (the 1003rd, from 0 the 1002nd) is at
+    // column 3 + 2 * 1002.
+    let (src, l) = load(&["big.obj"]);
+    let e = l.err().expect("over the budget");
+    assert_eq!((e.line, e.column), pos(&src, "\"big.obj\""));
+    assert_eq!(
+        e.to_string().lines().next().unwrap(),
+        format!(
+            "s.toml:{}:{}: mesh `big.obj`: big.obj:6:{}: too many triangles: the face's corner here makes triangle 1001 of \
+             the scene's meshes: expected at most 1000 triangles; raise it with --max-triangles",
+            e.line,
+            e.column,
+            3 + 2 * 1002
+        )
+    );
+    // The budget is the scene's: meshes add up, a file shared by objects counts once.
+    assert!(load(&["600.obj", "600.obj"]).1.is_ok());
+    let (_, l) = load(&["600.obj", "500.obj"]);
+    let e = l.err().expect("over the budget together").to_string();
+    assert!(e.contains("mesh `500.obj`: 500.obj:6:807: too many triangles: the face's corner here makes triangle 1001 of the scene's meshes (the meshes before this one have 600)"), "{e}");
+    // Exactly at the budget loads.
+    let at_budget = |_: &str| -> Result<Vec<u8>, String> { Ok(polygon(1002).into_bytes()) };
+    let src = format!("{CAMERA}[[objects]]\nshape = \"mesh\"\npath = \"m.obj\"\n");
+    assert!(crate::load_scene_within(&src, "s.toml", &Registry::with_builtins(), &at_budget, &limits).is_ok());
+}
+
+#[test]
+fn regression_a_polygon_of_ten_million_corners_is_refused_by_default() {
+    // A 20 MB file: one face of 10⁷ + 3 corners fanned into 10⁷ + 1 triangles at 700 MB. It is
+    // refused from the counting pass, before any triangle is stored.
+    let corners = crate::MAX_TRIANGLES + 3;
+    let mut obj = Vec::with_capacity(2 * corners + 32);
+    obj.extend_from_slice(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf");
+    for k in 0..corners {
+        obj.extend_from_slice([b" 1", b" 2", b" 3"][k % 3]);
+    }
+    obj.push(b'\n');
+    let e = load_mesh_bytes(&obj).err().expect("over the default budget").to_string();
+    assert!(e.contains("m.obj:4:20000007: too many triangles"), "{}", &e[..e.len().min(300)]);
+    assert!(e.contains("expected at most 10000000 triangles; raise it with --max-triangles"));
+}
+
+#[cfg(test)]
+mod probe_scenes {
+    fn walk(d: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(&p, out)
+            } else if p.extension().is_some_and(|x| x == "toml") {
+                out.push(p)
+            }
+        }
+    }
+    #[test]
+    fn probe_every_scene_places_objects_as_the_whole_read() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+        let mut files = Vec::new();
+        walk(&root, &mut files);
+        let mut n = 0;
+        for f in files {
+            let src = std::fs::read_to_string(&f).unwrap();
+            let Ok(doc) = toml::from_str::<crate::doc::SceneDoc>(&src) else {
+                eprintln!("not a scene: {}", f.display());
+                continue;
+            };
+            let base = f.parent().unwrap().to_path_buf();
+            let resolve = move |rel: &str| std::fs::read(base.join(rel)).map_err(|e| e.to_string());
+            let l = crate::load_scene_with(&src, "s", &lancer_shading::Registry::with_builtins(), &resolve)
+                .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+            let lines = crate::error::Lines::new(&src);
+            let whole: Vec<crate::Place> = doc.objects.iter().map(|o| lines.place("s", &src, o.span().start)).collect();
+            assert_eq!(l.places.objects, whole, "{}", f.display());
+            let batches = crate::scan::scan(&src, true).unwrap().object_batches.len();
+            eprintln!("{}: {} objects, {batches} batches, {} warnings", f.display(), whole.len(), l.warnings.len());
+            n += 1;
+        }
+        eprintln!("{n} scenes");
     }
 }

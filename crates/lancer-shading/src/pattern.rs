@@ -131,7 +131,7 @@ mod tests {
             ..Material::default()
         };
         let image = Material { pattern: Pattern::Image { texture: 0, scale: 2.0 }, ..Material::default() };
-        let textures = [Texture { width: 2, height: 1, pixels: vec![Vec3::X, Vec3::Z] }];
+        let textures = [Texture::linear(2, 1, vec![Vec3::X, Vec3::Z])];
         let solid = Material { color: Vec3::new(0.25, 0.5, 0.75), ..Material::default() };
         let materials = [checker(1.0), checker(0.37), checker(3.0), solid, image];
         let mut f = 0.123f32;
@@ -206,7 +206,7 @@ mod tests {
     #[test]
     fn image_lookup_uses_the_shapes_uv() {
         // A 2 × 1 image: left half red, right half blue.
-        let t = Texture { width: 2, height: 1, pixels: vec![Vec3::X, Vec3::Z] };
+        let t = Texture::linear(2, 1, vec![Vec3::X, Vec3::Z]);
         let m = Material { pattern: Pattern::Image { texture: 0, scale: 2.0 }, ..Material::default() };
         // On a plane, x / scale is u: x = 0.5 → u = 0.25, the red pixel's centre.
         assert_eq!(

@@ -5,7 +5,9 @@
 //!
 //! The server binds 127.0.0.1 by default, answers only to a localhost Host, wants a per-run token
 //! (from the launch URL, then a `SameSite=Strict` cookie), checks the Origin of the WebSocket
-//! upgrade, limits request bodies and messages, and reads no path a client names.
+//! upgrade, limits request bodies and messages, and reads no path a client names. A connection
+//! that sends no request head within 30 s is closed, and so is a WebSocket that hears nothing
+//! (not even the answer to a ping) for 10 minutes.
 
 mod save;
 mod security;
@@ -15,6 +17,7 @@ mod worker;
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::time::Duration;
 
 use anyhow::{Context, Result};
 use lancer_core::{Camera, ImageSettings, Scene};
@@ -76,6 +79,9 @@ pub(crate) struct SceneSlot {
     pub loaded: State,
     /// Counts the loads of the scene.
     pub epoch: u64,
+    /// The text the studio itself last saved into the file since it was loaded: a second Save
+    /// before the watcher has reloaded finds it there, which is no newer work to protect.
+    pub saved: Option<String>,
 }
 
 impl SceneSlot {
@@ -93,6 +99,7 @@ impl SceneSlot {
             path: l.path,
             loaded,
             epoch: 0,
+            saved: None,
         }
     }
 }
@@ -115,7 +122,8 @@ pub fn serve(registry: Registry, loader: Loader, explainer: Explainer, options: 
             .with_context(|| format!("listening on {}:{}", options.host, options.port))?;
         let port = listener.local_addr()?.port();
         let shared = worker::start(registry, slot, loader, explainer, options.allow_save)?;
-        let app = security::router(shared, token.clone(), options.host, port);
+        let timeouts = Timeouts::default();
+        let app = security::router(shared, token.clone(), options.host, port, timeouts);
         let shown = match options.host {
             IpAddr::V4(a) if a.is_loopback() => "127.0.0.1".to_owned(),
             IpAddr::V4(a) => a.to_string(),
@@ -127,6 +135,60 @@ pub fn serve(registry: Registry, loader: Loader, explainer: Explainer, options: 
             // No browser is not an error: the address is printed.
             let _ = webbrowser::open(&url);
         }
-        axum::serve(listener, app).await.context("serving")
+        run(listener, app, timeouts).await;
+        Ok(())
     })
+}
+
+/// How long the server waits on a client.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Timeouts {
+    /// From the moment a connection waits for a request (just opened, or idle between two) to
+    /// the end of the request's head: a client that sends none, or sends it slowly, is dropped.
+    pub header: Duration,
+    /// How often a WebSocket is pinged (a live page answers at once, even a hidden tab).
+    pub ping: Duration,
+    /// A WebSocket that receives nothing for this long (no edit, no answer to the pings), or
+    /// whose sends are stuck that long, is closed. Renders need nothing from the page: a long
+    /// render keeps its connection as long as the page answers the pings.
+    pub idle: Duration,
+}
+
+impl Default for Timeouts {
+    fn default() -> Timeouts {
+        Timeouts { header: Duration::from_secs(30), ping: Duration::from_secs(30), idle: Duration::from_secs(600) }
+    }
+}
+
+/// Serves `app` on `listener` over HTTP/1.1 (what browsers speak to an `http://` address), with
+/// upgrades for the WebSocket, closing connections whose request head does not arrive within
+/// `timeouts.header`. (`axum::serve` runs the same hyper connection but without a timer, so
+/// hyper's header timeout never fired and an idle connection stayed open for ever.)
+pub(crate) async fn run(listener: tokio::net::TcpListener, app: axum::Router, timeouts: Timeouts) {
+    loop {
+        let stream = match listener.accept().await {
+            Ok((stream, _)) => stream,
+            Err(e) => {
+                // A connection that failed before it was accepted is the client's business; any
+                // other error (too many open files) passes with time: wait, as axum::serve does.
+                if !matches!(
+                    e.kind(),
+                    std::io::ErrorKind::ConnectionRefused
+                        | std::io::ErrorKind::ConnectionAborted
+                        | std::io::ErrorKind::ConnectionReset
+                ) {
+                    tokio::time::sleep(Duration::from_secs(1)).await;
+                }
+                continue;
+            }
+        };
+        let _ = stream.set_nodelay(true);
+        let service = hyper_util::service::TowerToHyperService::new(app.clone());
+        tokio::spawn(async move {
+            let mut builder = hyper::server::conn::http1::Builder::new();
+            builder.timer(hyper_util::rt::TokioTimer::new()).header_read_timeout(timeouts.header);
+            // A failed connection (a timeout, a client gone) ends only itself.
+            let _ = builder.serve_connection(hyper_util::rt::TokioIo::new(stream), service).with_upgrades().await;
+        });
+    }
 }

@@ -375,7 +375,7 @@ mod tests {
         // A square pane at z = 2, its left half red and its right half blue in the texture: the
         // light through each half takes that half's colour (before the fix every shadow ray read
         // the texel at (0, 0): one colour everywhere).
-        let texture = Texture { width: 2, height: 1, pixels: vec![Vec3::X, Vec3::Z] };
+        let texture = Texture::linear(2, 1, vec![Vec3::X, Vec3::Z]);
         let positions = vec![
             Vec3::new(-1.0, -1.0, 2.0),
             Vec3::new(1.0, -1.0, 2.0),

@@ -348,6 +348,7 @@ function buildModel() {
 $("download").onclick = async () => {
   const r = await fetch("/api/scene.toml");
   const text = await r.text();
+  $("saved").classList.toggle("failed", !r.ok);
   if (!r.ok) { $("saved").textContent = text; return; }
   const name = (r.headers.get("content-disposition") || "").match(/filename="([^"]+)"/)?.[1] || "scene.toml";
   const a = el("a", { href: URL.createObjectURL(new Blob([text], { type: "application/toml" })), download: name });
@@ -356,5 +357,8 @@ $("download").onclick = async () => {
 };
 $("save").onclick = async () => {
   const r = await fetch("/api/save", { method: "POST" });
+  // A 409 is the file changed on disk (or a version the edits do not fit): nothing was written,
+  // and the answer says what to do.
   $("saved").textContent = await r.text();
+  $("saved").classList.toggle("failed", !r.ok);
 };
