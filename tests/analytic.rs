@@ -176,7 +176,14 @@ fn a_csg_lens_focuses_paraxial_rays_where_the_lensmaker_says() {
     let nodes = vec![sphere(r - d / 2.0), sphere(-(r - d / 2.0)), CsgNode::Op { op: CsgOp::Intersection, a: 0, b: 1 }];
     let lens = Shape::Csg(std::sync::Arc::new(Csg::new(nodes, 2).unwrap()));
     let geometry = Geometry::new(vec![Object::new(lens, Affine3A::IDENTITY, 0).unwrap()]);
-    let ctx = ShadeContext { geometry: &geometry, materials: &[], lights: &[], max_depth: 5, textures: &[] };
+    let ctx = ShadeContext {
+        geometry: &geometry,
+        materials: &[],
+        lights: &[],
+        max_depth: 5,
+        textures: &[],
+        reference: false,
+    };
     // Lensmaker's equation for a thick lens with R1 = R, R2 = −R; the back focal distance is
     // measured from the back surface: f (1 − (n − 1) d / (n R1)).
     let (r64, d64, n64) = (r as f64, d as f64, n as f64);

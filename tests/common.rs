@@ -7,6 +7,8 @@ use lancer_core::Frame;
 use lancer_scene::Loaded;
 use lancer_shading::{Registry, RenderOptions};
 
+pub mod robustness_scenes;
+
 /// The repository's root folder.
 pub fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ sits in the root").to_path_buf()

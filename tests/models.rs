@@ -143,7 +143,14 @@ fn soft_shadow_penumbra_matches_the_geometry_of_the_area_light() {
     ];
     let geometry = Geometry::new(objects);
     let materials = [Material::default()];
-    let scene = ShadeContext { geometry: &geometry, materials: &materials, lights: &[], max_depth: 5, textures: &[] };
+    let scene = ShadeContext {
+        geometry: &geometry,
+        materials: &materials,
+        lights: &[],
+        max_depth: 5,
+        textures: &[],
+        reference: false,
+    };
     let ctx = ShadowContext::new(&scene);
     let light = Light { at: Vec3::new(0.0, hl as f32, 0.0), color: Vec3::ONE, intensity: 1.0, size: s as f32 };
     let soft = Registry::with_builtins()

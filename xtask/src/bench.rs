@@ -397,7 +397,7 @@ pub fn run(args: &[String]) -> Result<()> {
     // Scenes of many objects, each its own `[[objects]]` table: the whole command (reading,
     // loading, the checks `lancer check` makes, preparing, a 16x9 render) once each, its time
     // and peak memory (Lancer's own figures). About 15 s in all; each file is deleted after
-    // (the larger is 84 MB).
+    // (the larger is 135 MB).
     println!(
         "\nLarge scenes (the sphere grid as [[objects]] tables: read, loaded, checked, prepared, a 16x9 render; 2 threads, one run)"
     );

@@ -111,6 +111,9 @@ pub(crate) struct SceneArgs {
     /// The most pixels a scene's textures may hold together (each is refused from its header).
     #[arg(long, value_name = "N", default_value_t = lancer_scene::MAX_TEXTURE_PIXELS, value_parser = clap::value_parser!(u64).range(1..))]
     max_texture_pixels: u64,
+    /// The most triangles a scene's meshes may hold together (polygons counted as fanned).
+    #[arg(long, value_name = "N", default_value_t = lancer_scene::MAX_TRIANGLES, value_parser = clap::value_parser!(usize))]
+    max_triangles: usize,
     /// Meshes and textures only from under the scene's folder (the studio sets it).
     #[arg(skip)]
     confined: bool,
@@ -148,6 +151,11 @@ pub(crate) struct RenderArgs {
     /// -o as a part file that `lancer merge` puts back together with the others, bit for bit.
     #[arg(long, value_name = "I/N", value_parser = crate::part::parse_tile)]
     tile: Option<(u32, u32)>,
+    /// Render by the reference path: every ray alone in plain code (no block tracer, no
+    /// eight-lane groups), each built-in term by its formula one hit at a time. Slower; the
+    /// same image but where two surfaces tie exactly.
+    #[arg(long)]
+    reference: bool,
 }
 
 #[derive(Args)]
@@ -432,7 +440,11 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
     };
 
     let load_start = Instant::now();
-    let limits = lancer_scene::Limits { max_texture_pixels: args.max_texture_pixels, ..Default::default() };
+    let limits = lancer_scene::Limits {
+        max_texture_pixels: args.max_texture_pixels,
+        max_triangles: args.max_triangles,
+        ..Default::default()
+    };
     let loaded =
         lancer_scene::load_scene_within(&src, &name, registry, &resolve, &limits).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();
@@ -641,6 +653,7 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
                 cancel: None,
                 // Per-term images only where they are written: --aov, or a part of a frame.
                 layers: args.aov.is_some() || args.tile.is_some(),
+                reference: args.reference,
             },
         )
     });

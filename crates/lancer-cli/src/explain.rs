@@ -2,7 +2,7 @@
 
 use std::fmt::Write;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use lancer_core::ImageSettings;
 use lancer_core::frame::BACKGROUND;
 use lancer_shading::{NoteValue, Pipeline, PixelExplanation, RayNode};
@@ -24,6 +24,11 @@ pub struct Report<'a> {
 
 fn v(v: Vec3) -> String {
     format!("({:.4}, {:.4}, {:.4})", v.x, v.y, v.z)
+}
+
+/// A point, in world space.
+fn p(p: DVec3) -> String {
+    format!("({:.4}, {:.4}, {:.4})", p.x, p.y, p.z)
 }
 
 impl Report<'_> {
@@ -102,7 +107,7 @@ impl Report<'_> {
             "{pad}{} ray{sample}, generation {}: from {} u = {}, weight {}{credit}",
             self.kind(ray),
             ray.depth,
-            v(ray.origin),
+            p(ray.origin),
             v(ray.dir),
             v(ray.weight)
         );
@@ -126,7 +131,7 @@ impl Report<'_> {
             hit.material,
             hit.t,
             if hit.front { "from outside" } else { "from inside" },
-            v(hit.point),
+            p(hit.point),
             v(hit.normal),
             v(hit.color)
         );
@@ -169,6 +174,7 @@ impl Report<'_> {
                 .map(|n| match &n.value {
                     NoteValue::Number(x) => format!("{} = {x:.4}", n.name),
                     NoteValue::Vector(x) => format!("{} = {}", n.name, v(*x)),
+                    NoteValue::Point(x) => format!("{} = {}", n.name, p(*x)),
                     NoteValue::Text(t) => format!("{}: {t}", n.name),
                 })
                 .collect();
@@ -195,7 +201,8 @@ impl Report<'_> {
     }
 
     /// The same as JSON: the model, the tree (camera rays with nested children), and `terms`
-    /// mapping every image `--aov` writes to its value, and `beauty`.
+    /// mapping every image `--aov` writes to its value, and `beauty`. Points (ray origins, hit
+    /// points, the refraction's `I` and `J`) are in world space, in f64.
     pub fn json(&self) -> String {
         let e = self.explanation;
         let roots: Vec<JsonRay> =
@@ -270,6 +277,7 @@ impl Report<'_> {
                             value: match &n.value {
                                 NoteValue::Number(x) => serde_json::json!(x),
                                 NoteValue::Vector(x) => serde_json::json!(x.to_array()),
+                                NoteValue::Point(x) => serde_json::json!(x.to_array()),
                                 NoteValue::Text(t) => serde_json::json!(t),
                             },
                         })
@@ -314,7 +322,8 @@ struct JsonRay<'a> {
     kind: String,
     generation: u8,
     sample: u32,
-    origin: [f32; 3],
+    /// In world space.
+    origin: [f64; 3],
     direction: [f32; 3],
     weight: [f32; 3],
     credited_to: Option<&'a str>,
@@ -331,7 +340,8 @@ struct JsonHit {
     shape: &'static str,
     material: u32,
     t: f32,
-    point: [f32; 3],
+    /// In world space.
+    point: [f64; 3],
     normal: [f32; 3],
     front: bool,
     color: [f32; 3],

@@ -3,11 +3,12 @@
 //! `reflection = spec`, `transmit = alpha` with ambient and diffuse divided by `1 − alpha`,
 //! `ior = n`). Objects keep their canonical shapes and get their placement as a `matrix`; the
 //! camera's `right` vector is negated so POV-Ray sees Lancer's right-handed coordinates as they
-//! are. What POV-Ray cannot express is listed at the top of the file.
+//! are. Positions are written in world space (the prepared scene's are from the camera). What
+//! POV-Ray cannot express is listed at the top of the file.
 
 use std::fmt::Write;
 
-use glam::{Affine3A, Vec3};
+use glam::{Affine3A, DVec3, Vec3};
 use lancer_core::{Camera, ImageSettings, Material, Pattern, Texture};
 use lancer_shading::{Pipeline, Prepared};
 use lancer_shapes::{CsgNode, CsgOp, Shape};
@@ -25,6 +26,38 @@ pub struct Export {
 
 fn v(p: Vec3) -> String {
     format!("<{}, {}, {}>", p.x, p.y, p.z)
+}
+
+/// The world coordinate `origin + at` of a prepared frame's coordinate `at`, with the fewest
+/// decimals that the frame rounds to `at` again (`at` in f32 from `origin`, as prepare makes
+/// it): POV-Ray is given the scene Lancer renders, in the file's own numbers where they were
+/// short.
+fn world(origin: f64, at: f32) -> String {
+    let exact = origin + at as f64;
+    for decimals in 0..24 {
+        let x: f64 = format!("{exact:.decimals$}").parse().expect("a number Rust wrote");
+        if (x - origin) as f32 == at {
+            // (`-0` as `0`.)
+            return format!("{}", x + 0.0);
+        }
+    }
+    format!("{exact}")
+}
+
+/// The world point of the prepared frame's point `at`.
+fn point(origin: DVec3, at: Vec3) -> String {
+    format!("<{}, {}, {}>", world(origin.x, at.x), world(origin.y, at.y), world(origin.z, at.z))
+}
+
+/// An object's placement in the prepared frame as a POV-Ray `matrix` in world space (its
+/// translation `origin` further).
+fn placed(m: &Affine3A, origin: DVec3) -> String {
+    let (x, y, z, t) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis, m.translation);
+    let (tx, ty, tz) = (world(origin.x, t.x), world(origin.y, t.y), world(origin.z, t.z));
+    format!(
+        "matrix <{}, {}, {}, {}, {}, {}, {}, {}, {}, {tx}, {ty}, {tz}>",
+        x.x, x.y, x.z, y.x, y.y, y.z, z.x, z.y, z.z
+    )
 }
 
 fn matrix(m: &Affine3A) -> String {
@@ -111,9 +144,9 @@ pub fn export(
     let _ = writeln!(
         out,
         "// Lancer is right-handed: the negative `right` makes POV-Ray see the same picture.\ncamera {{\n  perspective\n  location {}\n  sky {}\n  up y\n  right -x*{aspect}\n  angle {horizontal}\n  look_at {}\n}}\n",
-        v(camera.origin),
+        point(camera.origin, Vec3::ZERO),
         v(camera.up),
-        v(camera.origin + camera.forward)
+        point(camera.origin, camera.forward)
     );
     if image.background != Vec3::ZERO {
         let _ = writeln!(out, "background {{ color rgb {} }}\n", v(image.background));
@@ -125,11 +158,11 @@ pub fn export(
             let _ = writeln!(
                 out,
                 "light_source {{ {}, color rgb {}\n  area_light <{s}, 0, 0>, <0, 0, {s}>, 8, 8 jitter adaptive 0\n}}",
-                v(light.at),
+                point(prepared.origin, light.at),
                 v(colour)
             );
         } else {
-            let _ = writeln!(out, "light_source {{ {}, color rgb {} }}", v(light.at), v(colour));
+            let _ = writeln!(out, "light_source {{ {}, color rgb {} }}", point(prepared.origin, light.at), v(colour));
         }
     }
     let _ = writeln!(out);
@@ -151,7 +184,12 @@ pub fn export(
         );
         // The appearance before the placement: POV-Ray moves what comes before a transform with
         // it, so patterns stay in the object's own space as in Lancer.
-        let _ = writeln!(out, "// object {}\n{body}{appearance}  {}\n}}\n", i + 1, matrix(&object.world_from_object));
+        let _ = writeln!(
+            out,
+            "// object {}\n{body}{appearance}  {}\n}}\n",
+            i + 1,
+            placed(&object.world_from_object, prepared.origin)
+        );
     }
 
     notes.sort();

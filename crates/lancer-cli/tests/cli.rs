@@ -99,6 +99,21 @@ fn one_and_two_threads_write_identical_bytes() {
 }
 
 #[test]
+fn the_reference_path_writes_the_same_image() {
+    let dir = tempfile::tempdir().unwrap();
+    for (out, extra) in [("fast.exr", None), ("reference.exr", Some("--reference"))] {
+        let mut args = vec!["render", "-q", "--width", "96", "-o", out];
+        let glass = scene("glass.toml");
+        args.push(&glass);
+        args.extend(extra);
+        let o = lancer(dir.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let read = |p: &str| std::fs::read(dir.path().join(p)).unwrap();
+    assert_eq!(read("fast.exr"), read("reference.exr"));
+}
+
+#[test]
 fn terms_lists_every_term_and_shadow_model() {
     let o = lancer(Path::new("."), &["terms"]);
     assert!(o.status.success());
@@ -1287,4 +1302,90 @@ fn regression_merge_refuses_part_headers_whose_layers_are_paths_or_lancers_own_f
     // The parts as rendered still merge.
     let o = lancer(&dir, &["merge", "p0.lpart", "p1.lpart", "-o", "out.png", "--aov", "aov", "-q"]);
     assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A checkered floor and a glass ball, every position moved by `offset`.
+fn moved_scene(offset: [f64; 3]) -> String {
+    let at = |p: [f64; 3]| format!("[{:?}, {:?}, {:?}]", p[0] + offset[0], p[1] + offset[1], p[2] + offset[2]);
+    format!(
+        "[image]\nwidth = 64\nheight = 36\n[camera]\nfrom = {}\nto = {}\nfov = 40\n[model]\nshadows = \"transmissive\"\n\
+         [[lights]]\nat = {}\n\
+         [[objects]]\nshape = \"plane\"\ntranslate = {}\n\
+         material = {{ color = {{ pattern = \"checker\", colors = [[0.9, 0.9, 0.9], [0.15, 0.2, 0.3]], scale = 0.5 }} }}\n\
+         [[objects]]\nshape = \"sphere\"\ntranslate = {}\n\
+         material = {{ color = [0.95, 0.97, 1.0], diff = 0.05, alpha = 0.85, n = 1.5 }}\n",
+        at([0.0, 2.5, -8.0]),
+        at([0.0, 0.8, 0.0]),
+        at([-3.0, 8.0, -5.0]),
+        at([0.0, 0.0, 0.0]),
+        at([-1.2, 1.0, -1.5]),
+    )
+}
+
+/// Every point of an explanation's tree (ray origins, hit points, point notes), in order.
+fn points(ray: &serde_json::Value, out: &mut Vec<(String, [f64; 3])>) {
+    let xyz = |v: &serde_json::Value| -> [f64; 3] { std::array::from_fn(|a| v[a].as_f64().expect("a number")) };
+    out.push(("origin".into(), xyz(&ray["origin"])));
+    if !ray["hit"].is_null() {
+        out.push(("hit".into(), xyz(&ray["hit"]["point"])));
+    }
+    for term in ray["terms"].as_array().unwrap() {
+        for note in term["notes"].as_array().unwrap() {
+            let name = note["name"].as_str().unwrap();
+            if name.starts_with("I (") || name.starts_with("J (") {
+                out.push((name.to_owned(), xyz(&note["value"])));
+            }
+        }
+    }
+    for child in ray["children"].as_array().unwrap() {
+        points(child, out);
+    }
+}
+
+#[test]
+fn explain_json_of_a_scene_far_from_the_origin_gives_world_coordinates() {
+    // The render works from the camera (camera-relative, in f32); explain adds the camera's
+    // position back, in f64: the same tree as at the origin, moved by the offset.
+    let dir = tempfile::tempdir().unwrap();
+    let offset = [1e6, -2e5, 7e5];
+    let mut trees = Vec::new();
+    for (name, offset) in [("near.toml", [0.0; 3]), ("far.toml", offset)] {
+        std::fs::write(dir.path().join(name), moved_scene(offset)).unwrap();
+        // A pixel through the glass ball: its entry I and exit J are noted.
+        let o = lancer(dir.path(), &["explain", name, "--pixel", "40,22", "--json"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let doc: serde_json::Value = serde_json::from_slice(&o.stdout).expect("explain --json prints JSON");
+        let mut list = Vec::new();
+        points(&doc["rays"][0], &mut list);
+        trees.push(list);
+    }
+    let (near, far) = (&trees[0], &trees[1]);
+    assert!(near.iter().any(|(name, _)| name == "J (exit)"), "the pixel goes through the ball: {near:?}");
+    assert_eq!(far[0], ("origin".to_owned(), [1e6, -2e5 + 2.5, 7e5 - 8.0]), "the camera ray starts at `from`");
+    assert_eq!(near.len(), far.len(), "the same tree: {near:?}\n{far:?}");
+    for ((what, a), (other, b)) in near.iter().zip(far) {
+        assert_eq!(what, other);
+        for axis in 0..3 {
+            assert!((b[axis] - offset[axis] - a[axis]).abs() < 1e-4, "{what}: {b:?} is not {a:?} moved by {offset:?}");
+        }
+    }
+}
+
+#[test]
+fn export_pov_of_a_scene_far_from_the_origin_writes_world_coordinates() {
+    // The prepared scene is measured from the camera; the export adds the camera's position
+    // back, with the scene file's own numbers.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("far.toml"), moved_scene([1e6, -2e5, 7e5])).unwrap();
+    let o = lancer(dir.path(), &["export", "pov", "far.toml", "-o", "far.pov"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pov = std::fs::read_to_string(dir.path().join("far.pov")).unwrap();
+    for line in [
+        "location <1000000, -199997.5, 699992>",
+        "light_source { <999997, -199992, 699995>",
+        "matrix <1, 0, 0, 0, 1, 0, 0, 0, 1, 1000000, -200000, 700000>",
+        "matrix <1, 0, 0, 0, 1, 0, 0, 0, 1, 999998.8, -199999, 699998.5>",
+    ] {
+        assert!(pov.contains(line), "{line}: {pov}");
+    }
 }

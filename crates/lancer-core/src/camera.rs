@@ -1,12 +1,14 @@
 //! The pinhole camera of docs/scene-format.md: `from`, `to`, `up`, vertical field of view.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// A pinhole camera. Build it with [`Camera::look_at`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
-    /// Eye position.
-    pub origin: Vec3,
+    /// Eye position, in f64: a scene's camera holds it in world space as the file gives it; the
+    /// render sees the camera from the prepared frame's origin ([`Camera::seen_from`]), where
+    /// its rays start, rounded to f32.
+    pub origin: DVec3,
     /// Unit viewing direction.
     pub forward: Vec3,
     /// Unit vector to the image's right: `normalize(forward × up)`.
@@ -40,8 +42,10 @@ impl std::fmt::Display for CameraError {
 
 impl Camera {
     /// The camera at `from` looking at `to`, with `up` and a vertical field of view in degrees.
-    pub fn look_at(from: Vec3, to: Vec3, up: Vec3, fov_deg: f32) -> Result<Camera, CameraError> {
-        let forward = (to - from).try_normalize().ok_or(CameraError::NoDirection)?;
+    /// The viewing direction is `to - from` taken in f64, then rounded to f32 once: it stays
+    /// exact however far from the origin the two points are.
+    pub fn look_at(from: DVec3, to: DVec3, up: Vec3, fov_deg: f32) -> Result<Camera, CameraError> {
+        let forward = (to - from).as_vec3().try_normalize().ok_or(CameraError::NoDirection)?;
         let right = forward.cross(up).try_normalize().ok_or(CameraError::UpParallel)?;
         if !(fov_deg > 0.0 && fov_deg < 180.0) {
             return Err(CameraError::BadFov);
@@ -53,6 +57,13 @@ impl Camera {
             up: right.cross(forward),
             tan_half_fov: (fov_deg.to_radians() * 0.5).tan(),
         })
+    }
+
+    /// The same camera with its position measured from `origin` (in f64): the camera a frame
+    /// whose origin is the world point `origin` renders with.
+    #[inline]
+    pub fn seen_from(&self, origin: DVec3) -> Camera {
+        Camera { origin: self.origin - origin, ..*self }
     }
 
     /// The unit direction through image point `(px, py)` in pixels (`(0, 0)` is the top-left
@@ -92,8 +103,9 @@ mod tests {
     fn eight_directions_at_once_have_the_bits_of_each_alone() {
         // An oblique camera (every axis of every direction is a sum of three terms) and a
         // wide image, so the order of the sums and the aspect ratio both show.
-        let cam = Camera::look_at(Vec3::new(3.0, 2.5, -7.0), Vec3::new(-1.0, 0.3, 2.0), Vec3::new(0.1, 1.0, 0.2), 53.0)
-            .unwrap();
+        let cam =
+            Camera::look_at(DVec3::new(3.0, 2.5, -7.0), DVec3::new(-1.0, 0.3, 2.0), Vec3::new(0.1, 1.0, 0.2), 53.0)
+                .unwrap();
         let mut f = 0.41f32;
         for _ in 0..500 {
             let mut next = || {
@@ -112,7 +124,7 @@ mod tests {
 
     #[test]
     fn centre_pixel_looks_forward_and_row_zero_is_top() {
-        let cam = Camera::look_at(Vec3::new(0.0, 0.0, -5.0), Vec3::ZERO, Vec3::Y, 40.0).unwrap();
+        let cam = Camera::look_at(DVec3::new(0.0, 0.0, -5.0), DVec3::ZERO, Vec3::Y, 40.0).unwrap();
         let d = cam.direction(50.0, 50.0, 100, 100);
         assert!((d - Vec3::Z).length() < 1e-6);
         assert!(cam.direction(50.0, 0.5, 100, 100).y > 0.0);
@@ -123,9 +135,21 @@ mod tests {
     }
 
     #[test]
+    fn a_camera_far_from_the_origin_looks_the_same_way_from_its_own_position() {
+        // `to - from` in f64: in f32 at 10⁶ both points would be rounded to 1/16 first.
+        let (from, to) = (DVec3::new(0.3, 2.5, -8.0), DVec3::new(-0.1, 0.8, 0.0));
+        let near = Camera::look_at(from, to, Vec3::Y, 40.0).unwrap();
+        let off = DVec3::new(1e6, -2e5, 7e5);
+        let far = Camera::look_at(from + off, to + off, Vec3::Y, 40.0).unwrap();
+        assert_eq!(far.origin, from + off);
+        assert_eq!(far.seen_from(from + off), near.seen_from(from));
+        assert_eq!(far.seen_from(from + off).origin, DVec3::ZERO);
+    }
+
+    #[test]
     fn degenerate_cameras_are_rejected() {
-        assert_eq!(Camera::look_at(Vec3::ONE, Vec3::ONE, Vec3::Y, 40.0), Err(CameraError::NoDirection));
-        assert_eq!(Camera::look_at(Vec3::ZERO, Vec3::Y, Vec3::Y, 40.0), Err(CameraError::UpParallel));
-        assert_eq!(Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 180.0), Err(CameraError::BadFov));
+        assert_eq!(Camera::look_at(DVec3::ONE, DVec3::ONE, Vec3::Y, 40.0), Err(CameraError::NoDirection));
+        assert_eq!(Camera::look_at(DVec3::ZERO, DVec3::Y, Vec3::Y, 40.0), Err(CameraError::UpParallel));
+        assert_eq!(Camera::look_at(DVec3::ZERO, DVec3::Z, Vec3::Y, 180.0), Err(CameraError::BadFov));
     }
 }

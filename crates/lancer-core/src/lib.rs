@@ -16,7 +16,7 @@ pub use camera::Camera;
 pub use frame::{Frame, Layer, RenderStats, SystemTimes};
 pub use glam::Vec3;
 pub use material::{Light, Material, Pattern};
-pub use scene::{ImageSettings, MaterialOf, Meta, Scene, Transform};
+pub use scene::{ImageSettings, MaterialOf, Meta, Position, Scene, Transform};
 pub use texture::{Texels, Texture, srgb_decode};
 
 /// A linear RGB colour (no gamma), stored as a `Vec3`.

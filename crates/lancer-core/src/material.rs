@@ -66,7 +66,9 @@ impl Default for Material {
 /// handout's model).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Light {
-    /// Position (the square's centre for an area light).
+    /// Position (the square's centre for an area light). In a prepared scene it is measured
+    /// from the prepared frame's origin (the camera); in a scene's World it is the world
+    /// position rounded to f32, a [`crate::Position`] beside it holding it in f64.
     pub at: Vec3,
     /// `Col_L` before intensity, linear RGB.
     pub color: Vec3,

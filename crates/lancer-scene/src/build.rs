@@ -4,15 +4,17 @@
 use std::collections::HashMap;
 use std::ops::Range;
 
-use glam::{Affine3A, Mat3, Vec3};
-use lancer_core::{Camera, ImageSettings, Light, Material, MaterialOf, Meta, Pattern, Scene, Texture, Transform};
+use glam::{Affine3A, DVec3, Mat3, Vec3};
+use lancer_core::{
+    Camera, ImageSettings, Light, Material, MaterialOf, Meta, Pattern, Position, Scene, Texture, Transform,
+};
 use lancer_shading::{ParamValue, Params, Pipeline, Registry};
 use lancer_shapes::{CsgNode, CsgOp, Mesh, MeshError, Shape};
 use toml::Spanned;
 
 use crate::doc::{
-    ColorDoc, MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, ObjectDoc, ObjectsDoc, OperandDoc, PatternDoc, Scale,
-    SceneDoc,
+    ColorDoc, Exact, MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, ObjectDoc, ObjectsDoc, OperandDoc, PatternDoc,
+    Scale, SceneDoc,
 };
 use crate::error::Lines;
 use crate::{LoadError, LoadErrorKind, Place, Warning};
@@ -81,9 +83,11 @@ impl<'a> Ctx<'a> {
         LoadError::located(self.file, self.src, self.lines, Some(self.shifted(span)), kind)
     }
 
-    fn syntax(&self, e: toml::de::Error) -> LoadError {
+    /// A toml error reading `parsed`, the text its spans count in (the file, the file with its
+    /// objects blanked out, or a batch of them).
+    fn syntax(&self, e: toml::de::Error, parsed: &str) -> LoadError {
         let message = e.message().trim_end();
-        let span = e.span().map(|span| back_to_the_line_it_belongs_to(self.src, self.shifted(span), message));
+        let span = e.span().map(|span| self.shifted(back_to_the_line_it_belongs_to(parsed, span, message)));
         let mut message = with_did_you_mean(message);
         if message.starts_with("missing comma between array elements") {
             message.push_str(", or the `]` that closes the array");
@@ -216,12 +220,13 @@ pub fn load_scene_within(
     // Batches of `[[objects]]` are read one after the other, after the rest of the file (read
     // with them blanked out, so its spans are the file's): the toml crate's document of the
     // whole file would take some 40 bytes per byte of it.
-    let doc: SceneDoc = if layout.object_batches.is_empty() {
-        toml::from_str(src)
+    let rest = if layout.object_batches.is_empty() {
+        std::borrow::Cow::Borrowed(src)
     } else {
-        toml::from_str(&blanked(src, &layout.object_batches))
-    }
-    .map_err(|e| cx.syntax(e))?;
+        std::borrow::Cow::Owned(blanked(src, &layout.object_batches))
+    };
+    let doc: SceneDoc = toml::from_str(&rest).map_err(|e| cx.syntax(e, &rest))?;
+    drop(rest);
     let pipeline = match &doc.model {
         Some(m) => build_pipeline(&cx, m, registry, None)?,
         None => registry.default_pipeline(),
@@ -252,7 +257,9 @@ pub fn load_scene_within(
     for l in &doc.lights {
         places.lights.push(cx.place(l.span()));
         let l = l.get_ref();
-        world.spawn((Light { at: vec3(l.at), color: Vec3::from(l.color), intensity: l.intensity, size: l.size },));
+        let at = dvec3(l.at);
+        let light = Light { at: at.as_vec3(), color: Vec3::from(l.color), intensity: l.intensity, size: l.size };
+        world.spawn((light, Position(at)));
     }
     if doc.lights.is_empty() {
         warnings.push(Warning {
@@ -318,14 +325,15 @@ pub fn load_scene_within(
                     })?,
             ),
         };
-        let world_from_object = placement(obj.scale.as_ref(), obj.rotate, obj.translate);
+        // The translation in f64: prepare rounds it once the camera's position is taken off.
+        let linear = placement(obj.scale.as_ref(), obj.rotate, None).matrix3;
+        let transform = Transform::new(linear, obj.translate.map_or(DVec3::ZERO, dvec3));
         // The geometry's own test, here, so the error has a place in the file.
-        if lancer_shapes::invertible(&world_from_object).is_none() {
+        if lancer_shapes::invertible(&transform.world_from_object).is_none() {
             let span = obj.scale.as_ref().map_or(o.span(), |s| s.span());
             let msg = "this placement (scale, rotate, translate) cannot be inverted in single precision";
             return Err(cx.err(span, LoadErrorKind::Syntax(msg.into())));
         }
-        let transform = Transform { world_from_object };
         match mat {
             Some(m) => world.spawn((shape, transform, MaterialOf(m))),
             None => world.spawn((shape, transform)),
@@ -337,14 +345,15 @@ pub fn load_scene_within(
     }
     for batch in &layout.object_batches {
         let cx = Ctx { offset: batch.start, ..cx };
-        let doc: ObjectsDoc = toml::from_str(&src[batch.clone()]).map_err(|e| cx.syntax(e))?;
+        let text = &src[batch.clone()];
+        let doc: ObjectsDoc = toml::from_str(text).map_err(|e| cx.syntax(e, text))?;
         for o in &doc.objects {
             object(&cx, o)?;
         }
     }
 
     let cam = doc.camera.get_ref();
-    let camera = Camera::look_at(vec3(cam.from), vec3(cam.to), vec3(cam.up), cam.fov.0)
+    let camera = Camera::look_at(dvec3(cam.from), dvec3(cam.to), vec3(cam.up), cam.fov.0)
         .map_err(|e| cx.err(doc.camera.span(), LoadErrorKind::Camera(e.to_string())))?;
     let image = ImageSettings {
         width: doc.image.width,
@@ -371,7 +380,7 @@ pub fn load_model(src: &str, file: &str, registry: &Registry) -> Result<Pipeline
     let lines = Lines::new(src);
     let cx = Ctx::new(file, src, &lines);
     cx.scan(false)?;
-    let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
+    let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e, src))?;
     build_pipeline(&cx, &doc, registry, None)
 }
 
@@ -382,7 +391,7 @@ pub fn load_model_over(src: &str, file: &str, registry: &Registry, base: Pipelin
     let lines = Lines::new(src);
     let cx = Ctx::new(file, src, &lines);
     cx.scan(false)?;
-    let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e))?;
+    let doc: ModelDoc = toml::from_str(src).map_err(|e| cx.syntax(e, src))?;
     build_pipeline(&cx, &doc, registry, Some(base))
 }
 
@@ -524,6 +533,10 @@ fn csg_node(
 
 fn vec3(v: [Num; 3]) -> Vec3 {
     Vec3::new(v[0].0, v[1].0, v[2].0)
+}
+
+fn dvec3(v: [Exact; 3]) -> DVec3 {
+    DVec3::new(v[0].0, v[1].0, v[2].0)
 }
 
 /// Meshes loaded so far, each file once (objects that share a file share the mesh).

@@ -21,7 +21,8 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
         let at = places.objects.get(i).map(|p| format!(", {p}")).unwrap_or_default();
         format!("object {} ({}{at})", i + 1, geometry.objects[i].shape.name())
     };
-    let camera = scene.camera.origin;
+    // The prepared frame's objects and lights are measured from its origin; the camera too.
+    let camera = scene.camera.seen_from(prepared.origin).origin.as_vec3();
     for i in (0..geometry.objects.len()).filter(|&i| geometry.objects[i].contains(camera)) {
         let see = if material(i).alpha > 0.0 {
             "the image is seen through its surface from inside"

@@ -40,6 +40,36 @@ impl<'de> Deserialize<'de> for Num {
     }
 }
 
+/// A position's coordinate, kept in f64 (translations, light positions, the camera's `from` and
+/// `to`): rounded to f32 only once the camera's position is taken off it, at prepare. Finite and
+/// within f32's range, as [`Num`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Exact(pub f64);
+
+struct ExactVisitor;
+
+impl Visitor<'_> for ExactVisitor {
+    type Value = Exact;
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a finite number")
+    }
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Exact, E> {
+        NumVisitor.visit_f64(v).map(|_| Exact(v))
+    }
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Exact, E> {
+        Ok(Exact(v as f64))
+    }
+    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Exact, E> {
+        Ok(Exact(v as f64))
+    }
+}
+
+impl<'de> Deserialize<'de> for Exact {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Exact, D::Error> {
+        d.deserialize_any(ExactVisitor)
+    }
+}
+
 /// A finite number in `[lo, hi]`.
 fn ranged<'de, D: Deserializer<'de>>(d: D, lo: f32, hi: f32) -> Result<f32, D::Error> {
     let Num(x) = Num::deserialize(d)?;
@@ -190,8 +220,8 @@ fn d_one() -> u32 {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraDoc {
-    pub from: [Num; 3],
-    pub to: [Num; 3],
+    pub from: [Exact; 3],
+    pub to: [Exact; 3],
     #[serde(default = "d_up")]
     pub up: [Num; 3],
     #[serde(default = "d_fov", deserialize_with = "fov")]
@@ -404,7 +434,7 @@ fn d_n() -> f32 {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LightDoc {
-    pub at: [Num; 3],
+    pub at: [Exact; 3],
     #[serde(default = "d_white", deserialize_with = "colour")]
     pub color: [f32; 3],
     #[serde(default = "d_intensity", deserialize_with = "light_range")]
@@ -424,7 +454,7 @@ pub struct ObjectDoc {
     pub material: Option<Spanned<MaterialRef>>,
     pub scale: Option<Spanned<Scale>>,
     pub rotate: Option<[Num; 3]>,
-    pub translate: Option<[Num; 3]>,
+    pub translate: Option<[Exact; 3]>,
     /// A torus's tube radius.
     pub minor: Option<Spanned<Num>>,
     /// A CSG object's operation and operands.

@@ -1,13 +1,14 @@
 //! Explaining one pixel: the pixel rendered alone through the same systems, every ray its own
 //! chunk, with everything the systems find about each ray kept as a tree (`lancer explain`).
+//! Points are given in world space: the prepared frame's, moved back by its origin.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use lancer_core::frame::BACKGROUND;
 use lancer_core::rays::{CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
 use lancer_core::{Camera, ImageSettings};
 
 use crate::render::{Scratch, Tile, render_tile, shade_context};
-use crate::{Note, Pipeline, Prepared, ShadeContext, ShadowContext};
+use crate::{Note, NoteValue, Pipeline, Prepared, ShadeContext};
 
 /// Everything the render did for one pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -36,8 +37,8 @@ pub struct RayNode {
     pub sample: u32,
     /// Its generation (0 for camera rays).
     pub depth: u8,
-    /// Where it starts.
-    pub origin: Vec3,
+    /// Where it starts, in world space.
+    pub origin: DVec3,
     /// Its unit direction `u`.
     pub dir: Vec3,
     /// What its colour is multiplied by on its way to the pixel.
@@ -67,8 +68,8 @@ pub struct HitNode {
     pub material: u32,
     /// Distance along the ray.
     pub t: f32,
-    /// The hit point `I`.
-    pub point: Vec3,
+    /// The hit point `I`, in world space.
+    pub point: DVec3,
     /// The shading normal `N`, facing the ray.
     pub normal: Vec3,
     /// Whether the ray arrived from outside.
@@ -89,9 +90,12 @@ pub struct LightNode {
     /// Whether a shadow ray was traced (the light is in front of the surface and some term
     /// reads lights on this material).
     pub traced: bool,
-    /// The shadow model's transmittance (zero when not traced).
+    /// The transmittance the render used: what the shadow model gave the visibility system for
+    /// this hit and light, read back from the light it stored ([`transmittance_of`]; zero when
+    /// not traced).
     pub transmittance: Vec3,
-    /// The light terms receive: `Col_L` times the transmittance.
+    /// The light terms receive: `Col_L` times the transmittance, as the visibility system
+    /// stored it.
     pub incoming: Vec3,
 }
 
@@ -109,7 +113,8 @@ pub struct TermNode {
 }
 
 /// Renders pixel (`x`, `y`) of the image alone and explains it. The pixel's values are the
-/// same, to the bit, as in a render of the whole frame with the same settings.
+/// same, to the bit, as in a render of the whole frame with the same settings. `camera` is in
+/// world space, as for [`crate::render_prepared`]; so are the explanation's points.
 pub fn explain_pixel(
     prepared: &Prepared,
     camera: &Camera,
@@ -121,9 +126,10 @@ pub fn explain_pixel(
     let ctx = shade_context(prepared, pipeline);
     let lit = crate::render::lit_materials(&ctx, pipeline);
     let mut scratch = Scratch::new(pipeline);
-    let mut recorder = Recorder::default();
+    let mut recorder = Recorder { origin: prepared.origin, ..Recorder::default() };
     let tile = Tile { x0: x, y0: y, w: 1, h: 1 };
     let mut stats = lancer_core::RenderStats::default();
+    let camera = &camera.seen_from(prepared.origin);
     render_tile(&ctx, &lit, camera, image, pipeline, tile, &mut scratch, Some(&mut recorder), false, &mut stats);
     let mut names: Vec<String> = pipeline.terms.iter().map(|t| t.name.clone()).collect();
     names.push(BACKGROUND.to_owned());
@@ -136,9 +142,36 @@ pub fn explain_pixel(
     PixelExplanation { x, y, rays: recorder.rays, layers, beauty }
 }
 
+/// The transmittance by which the visibility system multiplied `radiance` (`Col_L`) into
+/// `incoming`, the light it stored for terms, channel by channel: where the light has some of a
+/// channel, the f32 nearest `incoming / radiance` whose product with `radiance` is `incoming`
+/// (the shadow model's answer is one); where it has none, nothing told the channels apart, so
+/// the others' value when they agree (every built-in model but `tint`ed ones gives the three
+/// channels alike), else 0.
+pub(crate) fn transmittance_of(incoming: Vec3, radiance: Vec3) -> Vec3 {
+    let channel = |i: f32, r: f32| {
+        (r != 0.0).then(|| {
+            let t = i / r;
+            [t, t.next_up(), t.next_down(), t.next_up().next_up(), t.next_down().next_down()]
+                .into_iter()
+                .find(|&c| r * c == i)
+                .unwrap_or(t)
+        })
+    };
+    let known: [Option<f32>; 3] = std::array::from_fn(|a| channel(incoming[a], radiance[a]));
+    let mut seen = known.iter().flatten();
+    let fill = match seen.next() {
+        Some(&first) if seen.all(|&t| t == first) => first,
+        _ => 0.0,
+    };
+    Vec3::from(known.map(|t| t.unwrap_or(fill)))
+}
+
 /// Collects the tree while [`render_tile`] runs with one ray per chunk.
 #[derive(Default)]
 pub(crate) struct Recorder {
+    /// The prepared frame's origin in world space: what is added to its points.
+    origin: DVec3,
     rays: Vec<RayNode>,
     /// The rays of the generation being run, in chunk order.
     current: Vec<usize>,
@@ -162,8 +195,6 @@ impl Recorder {
         background: Vec3,
     ) {
         self.current.clear();
-        // Its own count of shadow rays: asking again does not change the render's.
-        let shadow_ctx = ShadowContext::new(ctx);
         let pending = std::mem::take(&mut self.pending);
         // hecs iterates an archetype in spawn order, and the world was emptied before this
         // generation's chunks were spawned in `next`'s order: chunk i is pending ray i.
@@ -180,7 +211,7 @@ impl Recorder {
                 parent,
                 sample,
                 depth: rays.depth[0],
-                origin: rays.origin.at(0),
+                origin: self.origin + rays.origin.at(0).as_dvec3(),
                 dir: rays.dir.at(0),
                 weight: rays.weight.at(0),
                 credit,
@@ -201,23 +232,22 @@ impl Recorder {
                     shape: object.shape.name(),
                     material: object.material + 1,
                     t: hit.t,
-                    point: hit.point,
+                    point: self.origin + hit.point.as_dvec3(),
                     normal: n,
                     front: hit.front,
                     color: ctx.color(hits, 0),
                 });
-                // The visibility system's light entries, and the transmittance it multiplied in
-                // (asked again of the shadow model, which answers the same for the same hit).
+                // The visibility system's light entries, and the transmittance it multiplied in:
+                // read back from them, what the shadow model gave this hit in the render (asking
+                // the model again, one ray at a time, need not give the same: its blocks of rays
+                // take other paths).
                 for (k, (w, incoming)) in samples.lane(0).enumerate() {
                     // The visibility system leaves `w` unset where no term reads lights.
                     let w = if reads { w } else { (ctx.lights[k].at - hit.point).normalize_or_zero() };
                     let n_dot_w = n.dot(w);
                     let traced = reads && w != Vec3::ZERO && n_dot_w > 0.0;
-                    let transmittance = if traced {
-                        pipeline.shadows.model.transmittance(&shadow_ctx, &hit, &ctx.lights[k])
-                    } else {
-                        Vec3::ZERO
-                    };
+                    let transmittance =
+                        if traced { transmittance_of(incoming, ctx.lights[k].radiance()) } else { Vec3::ZERO };
                     node.lights.push(LightNode { w, n_dot_w, read: reads, traced, transmittance, incoming });
                 }
             }
@@ -238,6 +268,13 @@ impl Recorder {
     ) {
         let id = self.current[chunk];
         let sample = self.rays[id].sample;
+        let notes = notes
+            .into_iter()
+            .map(|note| match note.value {
+                NoteValue::Point(p) => Note { value: NoteValue::Point(self.origin + p), ..note },
+                _ => note,
+            })
+            .collect();
         let (colour, sum) = added.iter().fold((Vec3::ZERO, Vec3::ZERO), |(c, s), (a, b)| (c + *a, s + *b));
         self.rays[id].terms.push(TermNode { term, colour, added: sum, notes });
         debug_assert_eq!(self.pending.len(), spawned.start);

@@ -340,6 +340,7 @@ mod tests {
             lights: &[],
             max_depth: 5,
             textures: &[],
+            reference: false,
         };
         let mut hits = lancer_core::rays::Hits::default();
         // Thirteen lanes: the second group is cut short.

@@ -29,5 +29,5 @@ pub use registry::{
     WEIGHT, is_name, is_term_name, nearest,
 };
 pub use render::{RenderOptions, TILE, WAVE, part_bands, render, render_prepared};
-pub use shadow::{HitBlock, ShadowContext, ShadowModel};
+pub use shadow::{HitBlock, ShadowContext, ShadowModel, aim};
 pub use term::{Chunk, Note, NoteValue, ShadeContext, Term, TermOutput, lit_by, mirror_direction, sum_lights};

@@ -1,19 +1,28 @@
 //! Prepare: flatten the scene's hecs World into read-only arrays (objects, materials, lights) and
-//! build the BVH, once per render.
+//! build the BVH, once per render. The arrays are camera-relative, as pbrt-v4 renders in
+//! camera-world space: the scene is moved so that the camera sits at the origin, in f64, before
+//! any position is rounded to f32, so a scene far from the world's origin is rendered as exactly
+//! as one near it.
 
 use std::collections::HashMap;
 
-use lancer_core::{Light, Material, MaterialOf, Scene, Transform};
+use glam::DVec3;
+use lancer_core::{Light, Material, MaterialOf, Position, Scene, Transform};
 use lancer_shapes::{Geometry, Object, Shape};
 
-/// The scene as the render loop reads it.
+/// The scene as the render loop reads it, in a frame whose origin is the world point
+/// [`Prepared::origin`] (the camera's position): every position in it (objects, lights, hits,
+/// rays) is measured from there.
 #[derive(Clone)]
 pub struct Prepared {
+    /// Where the frame's origin is in world space: the camera's position, in f64. A world point
+    /// `p` is `origin + p` here.
+    pub origin: DVec3,
     /// Objects and their BVH.
     pub geometry: Geometry,
     /// Material table.
     pub materials: Vec<Material>,
-    /// Lights, in the order they were added to the World.
+    /// Lights, in the order they were added to the World (their `at` from [`Prepared::origin`]).
     pub lights: Vec<Light>,
     /// Images for `Pattern::Image` materials.
     pub textures: Vec<lancer_core::Texture>,
@@ -30,10 +39,12 @@ pub enum PrepareError {
     DanglingMaterial(usize),
 }
 
-/// Flattens `scene.world`. Entities are taken in creation order, so the result does not depend
-/// on how hecs stores them.
+/// Flattens `scene.world`, in the frame whose origin is the camera's position: each object's
+/// translation and each light's position less the camera's, in f64, rounded to f32 once.
+/// Entities are taken in creation order, so the result does not depend on how hecs stores them.
 pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
     let world = &scene.world;
+    let origin = scene.camera.origin;
     let mut mats: Vec<(hecs::Entity, Material)> =
         world.query::<(hecs::Entity, &Material)>().iter().map(|(e, m)| (e, *m)).collect();
     mats.sort_by_key(|(e, _)| e.id());
@@ -55,13 +66,20 @@ pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
             Some(MaterialOf(e)) => *index.get(&e).ok_or(PrepareError::DanglingMaterial(i))?,
         };
         objects
-            .push(Object::new(shape, transform.world_from_object, material).ok_or(PrepareError::SingularTransform(i))?);
+            .push(Object::new(shape, transform.seen_from(origin), material).ok_or(PrepareError::SingularTransform(i))?);
     }
 
-    let mut lights: Vec<(hecs::Entity, Light)> =
-        world.query::<(hecs::Entity, &Light)>().iter().map(|(e, l)| (e, *l)).collect();
+    let mut lights: Vec<(hecs::Entity, Light)> = world
+        .query::<(hecs::Entity, &Light, Option<&Position>)>()
+        .iter()
+        .map(|(e, l, at)| {
+            let at = at.map_or(l.at.as_dvec3(), |p| p.0);
+            (e, Light { at: (at - origin).as_vec3(), ..*l })
+        })
+        .collect();
     lights.sort_by_key(|(e, _)| e.id());
     Ok(Prepared {
+        origin,
         geometry: Geometry::new(objects),
         materials,
         lights: lights.into_iter().map(|(_, l)| l).collect(),

@@ -62,6 +62,13 @@ pub struct RenderOptions<'a> {
     /// only the beauty image, the same bits, in a seventh of the memory for a five-term model
     /// (five terms and the background, and the beauty image).
     pub layers: bool,
+    /// Render by the reference path: every system one ray at a time in plain code (camera rays
+    /// by [`Camera::direction`], closest hits by [`lancer_shapes::Geometry::closest`] and
+    /// [`lancer_shapes::Object::hit`], each hit's light by [`crate::ShadowModel::transmittance`],
+    /// each built-in term by its reference form), with no block tracer, no cones, no eight-lane
+    /// groups and no one-material shortcuts. Slower; the same images to the bit but where the
+    /// block tracer and the BVH break an exact tie between two surfaces differently.
+    pub reference: bool,
 }
 
 /// The bands (rows of tiles, [`TILE`] pixels high, from the top) of part `index` of `count` of
@@ -98,7 +105,8 @@ pub fn render(scene: &Scene, pipeline: &Pipeline, options: RenderOptions<'_>) ->
 }
 
 /// Renders an already prepared scene. The result is the same, bit for bit, whatever the number
-/// of threads: tiles are independent and each is processed in a fixed order.
+/// of threads: tiles are independent and each is processed in a fixed order. `camera` is in
+/// world space (a scene's): its rays start at its position less [`Prepared::origin`].
 ///
 /// The beauty image (and the layers, when kept) are allocated once and each tile writes its own
 /// pixels of them (through its band's rows: a row of tiles is a contiguous run of each image),
@@ -114,7 +122,8 @@ pub fn render_prepared(
     options: RenderOptions<'_>,
 ) -> Frame {
     let (width, height) = (image.width, image.height);
-    let ctx = shade_context(prepared, pipeline);
+    let camera = &camera.seen_from(prepared.origin);
+    let ctx = ShadeContext { reference: options.reference, ..shade_context(prepared, pipeline) };
     let lit = lit_materials(&ctx, pipeline);
     let pixels = (width * height) as usize;
     // Zeroed by the system, page by page as the tiles first write them: no pass over the whole
@@ -277,6 +286,7 @@ pub(crate) fn shade_context<'a>(prepared: &'a Prepared, pipeline: &Pipeline) -> 
         lights: &prepared.lights,
         max_depth: pipeline.max_depth,
         textures: &prepared.textures,
+        reference: false,
     }
 }
 
@@ -429,7 +439,7 @@ pub(crate) fn render_tile(
         scratch.order.1 = (tile.w, tile.h);
     }
     for wave in waves(pixels, spp) {
-        camera_system(camera, image, tile, &scratch.order.0, wave.clone(), &mut scratch.next);
+        camera_system(camera, image, tile, &scratch.order.0, wave.clone(), ctx.reference, &mut scratch.next);
         stats.camera_rays += scratch.next.len() as u64;
         if let Some(r) = recorder.as_deref_mut() {
             r.camera_rays(wave, spp);
@@ -487,13 +497,15 @@ pub(crate) fn render_tile(
 }
 
 /// Generation 0: the camera rays of the tile's pixel samples `range` (pixel-major, the pixels
-/// in `order`), each of weight `1 / samples`.
+/// in `order`), each of weight `1 / samples`; with `reference`, each direction by itself
+/// ([`Camera::direction`]).
 fn camera_system(
     camera: &Camera,
     image: &ImageSettings,
     tile: Tile,
     order: &[(u32, u32)],
     range: std::ops::Range<usize>,
+    reference: bool,
     out: &mut Rays,
 ) {
     let spp = image.samples.max(1);
@@ -515,10 +527,19 @@ fn camera_system(
                 (at, s) = (at + 1, 0);
             }
         }
-        let dirs = camera.directions(px, py, image.width, image.height);
+        let dirs = if reference {
+            let mut dirs = [[0.0; PACKET]; 3];
+            for j in 0..lanes {
+                let d = camera.direction(px[j], py[j], image.width, image.height);
+                (dirs[0][j], dirs[1][j], dirs[2][j]) = (d.x, d.y, d.z);
+            }
+            dirs
+        } else {
+            camera.directions(px, py, image.width, image.height)
+        };
         let splat = |v: Vec3| v.to_array().map(|c| [c; PACKET]);
         out.dir.push_packet(&dirs, lanes);
-        out.origin.push_packet(&splat(camera.origin), lanes);
+        out.origin.push_packet(&splat(camera.origin.as_vec3()), lanes);
         out.weight.push_packet(&splat(weight), lanes);
         out.skip.extend_from_slice(&[NO_SKIP; PACKET][..lanes]);
         out.pixel.extend_from_slice(&pixels[..lanes]);
@@ -532,6 +553,9 @@ fn camera_system(
 /// on one object, they are described eight at a time ([`lancer_shapes::Object::hit_group`], the
 /// bits of one at a time).
 fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
+    if ctx.reference {
+        return trace_reference(world, ctx);
+    }
     let objects = &ctx.geometry.objects;
     for (rays, hits) in world.query_mut::<(&Rays, &mut Hits)>() {
         let mut waiting = [0u8; CHUNK_LANES / PACKET];
@@ -565,6 +589,20 @@ fn trace_system(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
                         store(ctx, hits, lane, i, &h);
                     }
                 }
+            }
+        }
+    }
+}
+
+/// The reference form of [`trace_system`]: each ray alone, its closest crossing by the BVH walk
+/// ([`lancer_shapes::Geometry::closest`]), the surface there by [`lancer_shapes::Object::hit`]
+/// and `Col_Ω` by [`ShadeContext::surface_color`].
+fn trace_reference(world: &mut hecs::World, ctx: &ShadeContext<'_>) {
+    for (rays, hits) in world.query_mut::<(&Rays, &mut Hits)>() {
+        for lane in 0..rays.len() {
+            let from = lancer_shapes::Origin { point: rays.origin.at(lane), skip: rays.skip[lane] };
+            if let Some((i, c)) = ctx.geometry.closest(from, rays.dir.at(lane), 0.0, f32::INFINITY) {
+                describe(ctx, rays, hits, lane, i, &c);
             }
         }
     }

@@ -39,12 +39,15 @@ impl<'a> ShadowContext<'a> {
         self.geometry.closest(from, dir, 0.0, dist)
     }
 
-    /// Whether anything lies between the surface at `at` and the distance `dist` along `dir`: a
-    /// shadow ray that stops at the first occluder, counted in [`ShadowContext::rays`].
+    /// Whether anything lies between the surface at `at` and the point `target`: a shadow ray
+    /// ([`aim`]ed from where it starts) that stops at the first occluder, counted in
+    /// [`ShadowContext::rays`]. A target within the start's offset of the surface is never
+    /// blocked.
     #[inline]
-    pub fn blocked(&self, at: &Hit, dir: Vec3, dist: f32) -> bool {
+    pub fn blocked(&self, at: &Hit, target: Vec3) -> bool {
+        let Some((from, dir, left)) = aim(self.geometry, at, target) else { return false };
         self.rays.set(self.rays.get() + 1);
-        self.geometry.any_hit(self.geometry.spawn(at, dir), dir, dist)
+        self.geometry.any_hit(from, dir, left)
     }
 
     /// The first object on each segment of `lines` (ray `i` from its origin, ignoring its
@@ -56,17 +59,34 @@ impl<'a> ShadowContext<'a> {
         &self,
         lines: Lines<'_>,
         left: impl Fn(usize) -> f32,
-        found: impl FnMut(usize, u32, &lancer_shapes::ShapeHit),
+        mut found: impl FnMut(usize, u32, &lancer_shapes::ShapeHit),
     ) {
         self.rays.set(self.rays.get() + lines.len() as u64);
+        if self.reference {
+            // One ray at a time, by the BVH walk.
+            return lines.each_ray(|i, o, d| {
+                let from = Origin { point: o, skip: lines.skip[i] };
+                if let Some((object, c)) = self.geometry.closest(from, d, 0.0, left(i)) {
+                    found(i, object, &c);
+                }
+            });
+        }
         self.geometry.closest_each(lines, left, found);
     }
 
     /// [`ShadowContext::blocked`] for many shadow rays at once: `blocked(i)` for each segment of
     /// `lines` within `0 < t < dist(i)` that meets an object, counted in
     /// [`ShadowContext::rays`].
-    pub fn blocked_each(&self, lines: Lines<'_>, dist: impl Fn(usize) -> f32, blocked: impl FnMut(usize)) {
+    pub fn blocked_each(&self, lines: Lines<'_>, dist: impl Fn(usize) -> f32, mut blocked: impl FnMut(usize)) {
         self.rays.set(self.rays.get() + lines.len() as u64);
+        if self.reference {
+            // One ray at a time, by the BVH walk.
+            return lines.each_ray(|i, o, d| {
+                if self.geometry.any_hit(Origin { point: o, skip: lines.skip[i] }, d, dist(i)) {
+                    blocked(i);
+                }
+            });
+        }
         self.geometry.any_each(lines, dist, blocked);
     }
 
@@ -80,9 +100,19 @@ impl<'a> ShadowContext<'a> {
         toward: Option<Vec3>,
         left: impl Fn(usize) -> f32,
         through: impl Fn(u32) -> bool,
-        found: impl FnMut(usize, u32, &lancer_shapes::ShapeHit, bool),
+        mut found: impl FnMut(usize, u32, &lancer_shapes::ShapeHit, bool),
     ) {
         self.rays.set(self.rays.get() + lines.len() as u64);
+        if self.reference {
+            // One ray at a time, by the BVH walk: the first object met, and whether it is
+            // see-through with nothing else on the ray.
+            return lines.each_ray(|i, o, d| {
+                let from = Origin { point: o, skip: lines.skip[i] };
+                if let Some((object, c)) = self.geometry.closest(from, d, 0.0, left(i)) {
+                    found(i, object, &c, through(object) && !self.geometry.any_hit_without(from, d, left(i), object));
+                }
+            });
+        }
         self.geometry.first_each_through(lines, toward, left, through, found);
     }
 
@@ -106,6 +136,28 @@ fn toward(point: Vec3, target: Vec3) -> Option<(Vec3, f32)> {
     let d = target - point;
     let dist = d.length();
     (dist > 0.0 && dist.is_finite()).then(|| (d / dist, dist))
+}
+
+/// A shadow ray from the surface at `at` to `target`: it starts where
+/// [`lancer_shapes::Geometry::spawn`] puts a ray leaving the surface towards the target, and is
+/// aimed at the target from there, so it ends at the target wherever the offset moved its
+/// start (a ray that kept the direction from the hit point would end beside the target, by as
+/// much as the offset). Gives the start, the unit direction and the length. `None` when no ray
+/// is needed: the target is the hit point, or lies behind where the ray starts (within the
+/// offset of the surface).
+#[inline]
+pub fn aim(geometry: &lancer_shapes::Geometry, at: &Hit, target: Vec3) -> Option<(Origin, Vec3, f32)> {
+    let (leaving, _) = toward(at.point, target)?;
+    let from = geometry.spawn(at, leaving);
+    aim_from(from, leaving, target)
+}
+
+/// The second half of [`aim`]: the ray from `from` (spawned leaving along `leaving`) towards
+/// `target`, if the target lies ahead.
+#[inline]
+pub(crate) fn aim_from(from: Origin, leaving: Vec3, target: Vec3) -> Option<(Origin, Vec3, f32)> {
+    let (dir, left) = toward(from.point, target)?;
+    (dir.dot(leaving) > 0.0).then_some((from, dir, left))
 }
 
 /// The most hits the visibility system hands a shadow model at once
@@ -174,9 +226,13 @@ impl<'a> HitBlock<'a> {
             assert!(hits.object[lane] != lancer_core::rays::NO_HIT, "lane {lane} has no hit");
             let at = ctx.hit(hits, lane);
             let (from, dir, dist, left) = match toward(at.point, target) {
-                Some((dir, dist)) => {
-                    let from = ctx.geometry.spawn(&at, dir);
-                    (from, dir, dist, dist - (from.point - at.point).dot(dir))
+                Some((leaving, dist)) => {
+                    let from = ctx.geometry.spawn(&at, leaving);
+                    match aim_from(from, leaving, target) {
+                        Some((from, dir, left)) => (from, dir, dist, left),
+                        // The target within the offset: no ray (nothing left of it).
+                        None => (from, leaving, dist, 0.0),
+                    }
                 }
                 None => (Origin::free(at.point), Vec3::ZERO, 0.0, 0.0),
             };
@@ -253,8 +309,9 @@ impl<'a> HitBlock<'a> {
         self.dist[..self.len][i]
     }
 
-    /// What is left of hit `i`'s straight ray past its start: it reaches the target at this
-    /// distance from its origin.
+    /// The length of hit `i`'s straight ray: aimed at the target from its start ([`aim`]), it
+    /// reaches the target at this distance from its origin (0: no ray, the target is within the
+    /// start's offset of the surface).
     #[inline]
     pub fn left(&self, i: usize) -> f32 {
         self.left[..self.len][i]

@@ -17,6 +17,10 @@ pub struct ShadeContext<'a> {
     pub max_depth: u8,
     /// Images for `Pattern::Image` materials.
     pub textures: &'a [Texture],
+    /// Render by the reference path ([`crate::RenderOptions::reference`]): every system one ray
+    /// at a time in plain code, and each built-in term by its reference form (the formula of
+    /// docs/model.md, one hit at a time) instead of eight lanes at once.
+    pub reference: bool,
 }
 
 impl ShadeContext<'_> {
@@ -268,6 +272,9 @@ pub enum NoteValue {
     Number(f32),
     /// A vector or a colour.
     Vector(Vec3),
+    /// A point: in the prepared frame (from [`crate::Prepared::origin`]) as a term makes it
+    /// ([`Note::point`]), in world space in a [`crate::PixelExplanation`].
+    Point(glam::DVec3),
     /// Anything else, in words.
     Text(String),
 }
@@ -281,6 +288,12 @@ impl Note {
     /// A vector (or colour) note.
     pub fn vector(name: impl Into<String>, value: Vec3) -> Note {
         Note { name: name.into(), value: NoteValue::Vector(value) }
+    }
+
+    /// A point note: `at` is a point of the prepared frame, such as a hit point
+    /// ([`crate::explain_pixel`] gives it in world space).
+    pub fn point(name: impl Into<String>, at: Vec3) -> Note {
+        Note { name: name.into(), value: NoteValue::Point(at.as_dvec3()) }
     }
 
     /// A note in words.

@@ -23,6 +23,9 @@ pub(crate) fn visibility_system(
     pipeline: &Pipeline,
     lit: &[bool],
 ) {
+    if ctx.reference {
+        return visibility_reference(world, ctx, shadow_ctx, pipeline, lit);
+    }
     let mut out = [Vec3::ZERO; BLOCK];
     for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
         let n = hits.object.len();
@@ -62,6 +65,35 @@ pub(crate) fn visibility_system(
                 }
             }
             shade(shadow_ctx, pipeline, &block, light, samples, k, &mut out);
+        }
+    }
+}
+
+/// The reference form of [`visibility_system`]: one hit at a time, one light at a time. For a
+/// hit some term reads lights on, `w = normalize(L − I)`; a light in front of the surface
+/// (`N·w > 0`, `N` the shading normal facing the ray) sends `Col_L · T`, with `T` what the
+/// shadow model's [`crate::ShadowModel::transmittance`] gives that hit alone.
+fn visibility_reference(
+    world: &mut hecs::World,
+    ctx: &ShadeContext<'_>,
+    shadow_ctx: &ShadowContext<'_>,
+    pipeline: &Pipeline,
+    lit: &[bool],
+) {
+    for (hits, samples) in world.query_mut::<(&Hits, &mut LightSamples)>() {
+        for lane in 0..hits.object.len() {
+            if hits.object[lane] == lancer_core::rays::NO_HIT || !lit[hits.material[lane] as usize] {
+                continue;
+            }
+            let (at, n) = (ctx.hit(hits, lane), hits.facing_normal(lane));
+            for (k, light) in ctx.lights.iter().enumerate() {
+                let Some(w) = (light.at - at.point).try_normalize() else { continue };
+                samples.w[k].set(lane, w);
+                if n.dot(w) > 0.0 {
+                    let t = pipeline.shadows.model.transmittance(shadow_ctx, &at, light);
+                    samples.incoming[k].set(lane, light.radiance() * t);
+                }
+            }
         }
     }
 }
@@ -150,9 +182,18 @@ fn toward_light(
         &s.object,
         &dir_lanes,
     );
+    // `aim_from`: each ray aimed at the light from where it starts, as long as that; a light
+    // that lies behind the start (within its offset) gets no ray: nothing left, the direction
+    // it left along.
     let from = origin.map(f32x8::new);
-    let offset: V3 = std::array::from_fn(|a| from[a] - s.point[a]);
-    let left = (length - lanes::dot(&offset, &dir)).to_array();
+    let to: V3 = std::array::from_fn(|a| f32x8::splat(target[a]) - from[a]);
+    let reach = lanes::dot(&to, &to).sqrt();
+    let aimed = to.map(|c| c / reach);
+    let ahead = reach.cmp_gt(f32x8::ZERO)
+        & reach.cmp_lt(f32x8::splat(f32::INFINITY))
+        & lanes::dot(&aimed, &dir).cmp_gt(f32x8::ZERO);
+    let dir_lanes = std::array::from_fn(|a| ahead.blend(aimed[a], dir[a]).to_array());
+    let left = ahead.blend(reach, f32x8::ZERO).to_array();
     let length = length.to_array();
     for j in lanes::set(reached as u8) {
         let from = Origin { point: lancer_core::rays::lane(&origin, j), skip: skip[j] };
@@ -188,7 +229,14 @@ mod tests {
             place(Shape::Sphere, 0.5, Vec3::new(2.0, 0.5, 1.0)),
         ]);
         let materials = [Material::default()];
-        let scene = ShadeContext { geometry: &g, materials: &materials, lights: &[], max_depth: 5, textures: &[] };
+        let scene = ShadeContext {
+            geometry: &g,
+            materials: &materials,
+            lights: &[],
+            max_depth: 5,
+            textures: &[],
+            reference: false,
+        };
         let list: Vec<_> = (0..200)
             .filter_map(|k| {
                 let a = k as f32 * 0.618_034;

@@ -182,8 +182,10 @@ impl Csg {
             .map_or(*hit, |(t, normal)| crate::ShapeHit { t, normal, part: 0, bary: glam::Vec2::ZERO });
         let local = shape.surface(lo, ld, &own);
         let normal = hit.normal.normalize_or(Vec3::Y);
-        let (point, error) = crate::geometry::place(node_from_leaf, local.point, local.error, normal);
-        crate::LocalSurface { point, error, normal, shading: normal, uv: glam::Vec2::ZERO }
+        // Into the tree's space in f64, rounded once (as an object's placement is).
+        let (exact, error) = crate::geometry::place64(node_from_leaf, local.exact, local.error);
+        let error = error.max_element();
+        crate::LocalSurface { point: exact.as_vec3(), exact, error, normal, shading: normal, uv: glam::Vec2::ZERO }
     }
 }
 

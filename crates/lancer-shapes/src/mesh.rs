@@ -307,7 +307,7 @@ impl Mesh {
         let point = w[0] * a + w[1] * b + w[2] * c;
         // Each coordinate is a sum of three products: γ₅ of the sum of their magnitudes.
         let sum = (w[0] * a).abs() + (w[1] * b).abs() + (w[2] * c).abs();
-        let error = 5.0 * f32::EPSILON * sum.max_element();
+        let error = (5.0 * f32::EPSILON * sum.max_element()) as f64;
         let normal = (b - a).cross(c - a).normalize_or(Vec3::Y);
         let shading = if self.normals.is_empty() {
             normal
@@ -322,7 +322,7 @@ impl Mesh {
             let u = idx.map(|v| self.uvs[v as usize]);
             w[0] * u[0] + w[1] * u[1] + w[2] * u[2]
         };
-        LocalSurface { point, error, normal, shading, uv }
+        LocalSurface { point, exact: point.as_dvec3(), error, normal, shading, uv }
     }
 
     /// Whether any triangle lies on the ray `o + t d` with `0 < t < tmax` (stops at the first).

@@ -58,10 +58,13 @@ impl ShapeHit {
 /// The surface at a hit, in object space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LocalSurface {
-    /// The hit point, moved onto the surface (see [`Shape::surface`]).
+    /// The hit point, moved onto the surface (see [`Shape::surface`]), rounded to f32.
     pub point: Vec3,
-    /// A bound on the distance from `point` to the true surface.
-    pub error: f32,
+    /// The same point before it was rounded: what the placement into world space starts from,
+    /// so the world point is rounded once, however large the placement's scale.
+    pub exact: glam::DVec3,
+    /// A bound on the distance from `exact` to the true surface.
+    pub error: f64,
     /// Unit outward geometric normal.
     pub normal: Vec3,
     /// Unit outward shading normal: the geometric one, except on smooth meshes, where it is
@@ -71,8 +74,8 @@ pub struct LocalSurface {
     pub uv: glam::Vec2,
 }
 
-/// Unit roundoff of f32.
-const EPS: f32 = f32::EPSILON * 0.5;
+/// Unit roundoff of f64.
+const EPS64: f64 = f64::EPSILON * 0.5;
 
 impl Shape {
     /// Every shape's name as scene files spell it, in documentation order.
@@ -358,16 +361,17 @@ impl Shape {
     /// a secondary ray can start just off the surface wherever the scene is.
     pub fn surface(&self, o: Vec3, d: Vec3, hit: &ShapeHit) -> LocalSurface {
         let p = o.as_dvec3() + hit.t as f64 * d.as_dvec3();
+        // A point projected onto the surface in f64: the projection's own rounding, a few units
+        // of f64's roundoff of its coordinates.
         let plain = |point: glam::DVec3, normal: Vec3| {
-            let point = point.as_vec3();
-            // Rounding to f32 (half an ulp per coordinate) plus the f64 work before it.
-            let error = 2.0 * EPS * point.abs().max_element();
-            LocalSurface { point, error, normal, shading: normal, uv: glam::Vec2::ZERO }
+            let error = 8.0 * EPS64 * (point.x.abs() + point.y.abs() + point.z.abs());
+            LocalSurface { point: point.as_vec3(), exact: point, error, normal, shading: normal, uv: glam::Vec2::ZERO }
         };
         // A point snapped onto an axis-aligned plane (a face, a cap, the plane or the disk) is
         // exactly on it: no error along the normal, whatever its other coordinates.
         let snapped = |point: glam::DVec3, normal: Vec3| LocalSurface {
             point: point.as_vec3(),
+            exact: point,
             error: 0.0,
             normal,
             shading: normal,
@@ -416,7 +420,15 @@ impl Shape {
                 // The lower nappe only (Newton may step past the apex onto the upper one).
                 q.y = q.y.clamp(-1.0, 1.0);
                 let n = Vec3::new(2.0 * q.x as f32, (1.0 - q.y as f32) / 2.0, 2.0 * q.z as f32);
-                plain(q, n.normalize_or(hit.normal))
+                let mut surface = plain(q, n.normalize_or(hit.normal));
+                // Two steps may leave it short of the surface (a grazing ray far away): what is
+                // left of `f`, over its gradient, bounds the distance (to first order, doubled).
+                let f = q.x * q.x + q.z * q.z - (1.0 - q.y) * (1.0 - q.y) / 4.0;
+                let g = glam::DVec3::new(2.0 * q.x, (1.0 - q.y) / 2.0, 2.0 * q.z).length();
+                if g > 0.0 {
+                    surface.error += 2.0 * f.abs() / g;
+                }
+                surface
             }
             &Shape::Torus { minor } => {
                 let rho = (p.x * p.x + p.z * p.z).sqrt();

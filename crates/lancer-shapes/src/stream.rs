@@ -253,9 +253,52 @@ impl Block {
         self.slabs_ready = false;
         self.best[..n].fill(NONE);
         self.cone = match toward {
-            Some(target) => Cone::toward(&self.o, target, n.div_ceil(W)),
+            Some(target) => Cone::toward(&self.o, target, n.div_ceil(W), self.ends_from(target, n)),
             None => Cone::of_groups(&self.o, &self.d, n.div_ceil(W)),
         };
+        #[cfg(debug_assertions)]
+        if let Some(cone) = &self.cone {
+            self.check_cone(cone, n);
+        }
+    }
+
+    /// How far from `target` the first `n` rays end (`o + tmax d`): the cone from the target
+    /// must reach that far around its apex. Infinite when a limit is not finite.
+    fn ends_from(&self, target: Vec3, n: usize) -> f32 {
+        let mut far = 0.0f32;
+        for g in 0..n.div_ceil(W) {
+            let (t, ox, oy, oz) = (self.tmax[g].to_array(), self.o[0][g].to_array(), self.o[1][g].to_array(), self.o[2][g].to_array());
+            let (dx, dy, dz) = (self.d[0][g].to_array(), self.d[1][g].to_array(), self.d[2][g].to_array());
+            for k in 0..W.min(n - g * W) {
+                if !t[k].is_finite() {
+                    return f32::INFINITY;
+                }
+                let end = Vec3::new(ox[k], oy[k], oz[k]) + t[k] * Vec3::new(dx[k], dy[k], dz[k]);
+                far = far.max((end - target).length());
+            }
+        }
+        far
+    }
+
+    /// The cone's contract (debug builds): every ray of the block, from its origin to its end,
+    /// lies within the cone's reach, so no object a ray meets is culled.
+    #[cfg(debug_assertions)]
+    fn check_cone(&self, cone: &Cone, n: usize) {
+        for g in 0..n.div_ceil(W) {
+            let (t, o, d) = (self.tmax[g].to_array(), self.o.map(|c| c[g].to_array()), self.d.map(|c| c[g].to_array()));
+            for k in 0..W.min(n - g * W) {
+                let origin = Vec3::new(o[0][k], o[1][k], o[2][k]);
+                let dir = Vec3::new(d[0][k], d[1][k], d[2][k]);
+                for f in [0.0, 0.25, 0.5, 0.75, 1.0] {
+                    let p = origin + (t[k] * f) * dir;
+                    debug_assert!(
+                        !p.is_finite() || cone.may_meet(p, 0.0),
+                        "the block's cone leaves out ray {} at {f} of its length ({p})",
+                        g * W + k
+                    );
+                }
+            }
+        }
     }
 
     /// What the box tests need of the first `n` rays (`1 / d` and the flat axes): made when
@@ -554,12 +597,14 @@ impl Cone {
         (sin < 1.0 && apex.is_finite() && spread.is_finite()).then_some(cone)
     }
 
-    /// The cone of a block's rays that all go to `target` and stop there (shadow rays towards a
-    /// point light: each ray's limit is its distance to the target, give or take its start's
-    /// offset): from the target, around the line to the centre of the box of their origins,
-    /// wide enough for that box's ball. One pass over the origins, where [`Cone::of_groups`]
-    /// makes two. `None` when the target is within the ball (or anything is not finite).
-    fn toward(o: &[[Fx; GROUPS]; 3], target: Vec3, groups: usize) -> Option<Cone> {
+    /// The cone of a block's rays that all go to `target` and stop near it, none farther from it
+    /// than `ends` (shadow rays aimed at a point light from their starts): from the target,
+    /// around the line to the centre of the box of their origins, wide enough for that box's
+    /// ball, reaching `ends` (and a little more) around its apex and side: a ray's segment from
+    /// its origin to its end is within that of the segment from its origin to the target, which
+    /// the cone holds. One pass over the origins, where [`Cone::of_groups`] makes two. `None`
+    /// when the target is within the ball (or anything is not finite).
+    fn toward(o: &[[Fx; GROUPS]; 3], target: Vec3, groups: usize, ends: f32) -> Option<Cone> {
         let (min, max) = origin_box(o, groups)?;
         if !target.is_finite() {
             return None;
@@ -570,9 +615,10 @@ impl Cone {
         let v = centre - target;
         let distance = v.length();
         let sin = radius / distance * (1.0 + 1e-3) + 1e-6;
-        // Where a ray ends near the target (its start's offset, the rounding of its direction
-        // over its length): well within this of the apex and of the cone's side.
-        let spread = (target.abs().max_element() + distance) * 1e-5;
+        // Where the rays end, from the target (the rounding of each one's direction over its
+        // length), measured; with a margin for the rounding of the measure, and no less than a
+        // slack for rounding itself.
+        let spread = (ends * (1.0 + 1e-4)).max((target.abs().max_element() + distance) * 1e-5);
         let axis = v / distance;
         let cone = Cone { apex: target, spread, axis, cos: (1.0 - sin * sin).max(0.0).sqrt(), sin };
         (sin < 1.0 && distance.is_finite() && axis.is_finite() && spread.is_finite()).then_some(cone)
@@ -848,6 +894,109 @@ mod tests {
             }
         }
         assert!(met > 30_000 && culled > 10_000, "{met} kept, {culled} culled");
+    }
+
+    #[test]
+    fn regression_a_cone_from_the_light_holds_shadow_rays_spawned_off_objects_of_any_scale() {
+        // Found in review: the cone assumed every shadow ray ends at the light; a ray spawned
+        // off a floor scaled 10⁶ started units below it, kept its direction from the hit point
+        // and ended units beside the light, and the cone culled what it met there. Here the
+        // rays are made as the shading crate makes them, by `Geometry::spawn` off real hits on
+        // objects scaled 10⁻³ to 10⁶, both kept along the direction from the hit point (as
+        // before) and aimed at the light from their start (as now): every ray's first crossing
+        // through the block tracer with the light's cone is every object's own test's.
+        let mut f = crate::testing::uniform(0x3C6E_F372_FE94_F82B);
+        let mut checked = 0;
+        for case in 0..60 {
+            let scale: f32 = [1e-3, 1.0, 1e3, 1e6][case % 4];
+            let mut objects = vec![Object::new(
+                Shape::Cube,
+                Affine3A::from_scale_rotation_translation(Vec3::splat(1e6), Quat::IDENTITY, Vec3::new(0.0, -1e6, 0.0)),
+                0,
+            )
+            .unwrap()];
+            for k in 0..6 {
+                let shape = [Shape::Cube, Shape::Sphere, Shape::Torus { minor: 0.3 }][k % 3].clone();
+                let size = Vec3::new(f(0.2, 1.0), f(0.2, 1.0), f(0.2, 1.0)) * scale.min(3.0);
+                let turn = Quat::from_euler(glam::EulerRot::XYZ, f(-3.0, 3.0), f(-3.0, 3.0), f(-3.0, 3.0));
+                let at = Vec3::new(f(-6.0, 6.0), f(0.5, 4.0), f(-6.0, 6.0));
+                objects.push(Object::new(shape, Affine3A::from_scale_rotation_translation(size, turn, at), 0).unwrap());
+            }
+            // One of the case's scale: a wall beside the others.
+            let wall = Affine3A::from_scale_rotation_translation(
+                Vec3::splat(scale),
+                Quat::from_rotation_y(0.3),
+                Vec3::new(scale * 1.5 + 7.0, 0.0, 0.0),
+            );
+            objects.push(Object::new(Shape::Cube, wall, 0).unwrap());
+            // Small balls near where the light is, which a ray ending beside it meets.
+            let light = Vec3::new(f(-3.0, 3.0), f(6.0, 12.0), f(-3.0, 3.0));
+            for _ in 0..4 {
+                let at = light + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * 0.2;
+                objects.push(Object::new(Shape::Sphere, Affine3A::from_scale_rotation_translation(Vec3::splat(0.05), Quat::IDENTITY, at), 0).unwrap());
+            }
+            let g = Geometry::new(objects.clone());
+            assert!(!g.stream.is_empty());
+            let eye = Vec3::new(f(-2.0, 2.0), f(3.0, 6.0), -12.0);
+            // 0: along the direction from the hit point; 1: aimed from the start; 2: started
+            // units off the point (as the old offsets did beside a floor scaled 10⁶), along the
+            // direction from the hit point, so it ends units beside the light.
+            for style in 0..3 {
+                let aimed = style == 1;
+                let (mut origin, mut dir, mut skip, mut left) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                // A tile's worth of camera rays: hits close together, as a block's are.
+                let patch = Vec3::new(f(-6.0, 6.0), 0.0, f(-5.0, 5.0));
+                for _ in 0..20 * BLOCK {
+                    if origin.len() == BLOCK {
+                        break;
+                    }
+                    let to = patch + Vec3::new(f(-0.3, 0.3), f(-0.05, 0.05), f(-0.3, 0.3));
+                    let Some(hit) = g.closest_hit(crate::Origin::free(eye), (to - eye).normalize(), 0.0, f32::INFINITY) else {
+                        continue;
+                    };
+                    let (d0, dist) = ((light - hit.point).normalize(), (light - hit.point).length());
+                    if hit.normal.dot(d0) <= 0.0 {
+                        continue;
+                    }
+                    let mut from = g.spawn(&hit, d0);
+                    if style == 2 {
+                        from.point -= hit.normal * 5.7;
+                    }
+                    let (d, l) = if aimed {
+                        ((light - from.point).normalize(), (light - from.point).length())
+                    } else {
+                        (d0, dist - (from.point - hit.point).dot(d0))
+                    };
+                    origin.push(from.point);
+                    dir.push(d);
+                    skip.push(from.skip);
+                    left.push(l);
+                }
+                if origin.len() < BLOCK {
+                    // The patch is in shadow from its own surface: no shadow rays to make.
+                    continue;
+                }
+                // Tiny balls near the ends of some rays, which those rays meet.
+                let mut with_balls = objects.clone();
+                for l in (0..BLOCK).step_by(5) {
+                    let at = origin[l] + dir[l] * left[l] * 0.97;
+                    let ball = Affine3A::from_scale_rotation_translation(Vec3::splat(0.01), Quat::IDENTITY, at);
+                    with_balls.push(Object::new(Shape::Sphere, ball, 0).unwrap());
+                }
+                let g = Geometry::new(with_balls);
+                assert!(!g.stream.is_empty());
+                let (o_packets, d_packets) = (crate::testing::packets(&origin), crate::testing::packets(&dir));
+                let lines = Lines { origin: &o_packets, dir: &d_packets, skip: &skip };
+                let mut got = vec![None; BLOCK];
+                g.first_each_through(lines, Some(light), |l| left[l], |_| false, |l, i, c, _| got[l] = Some((i, c.t)));
+                for l in 0..BLOCK {
+                    let truth = every_object(&g, origin[l], dir[l], skip[l], left[l]).map(|(i, c)| (i, c.t));
+                    assert_eq!(got[l], truth, "case {case} (scale {scale}, style {style}), ray {l}");
+                    checked += usize::from(truth.is_some());
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked} rays met something");
     }
 
     #[test]

@@ -30,7 +30,7 @@ pub struct MaterialState {
 /// One light.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LightState {
-    /// Position.
+    /// Position, in world space (rounded to f32).
     pub at: [f32; 3],
     /// `Col_L` before intensity.
     pub color: [f32; 3],
@@ -137,7 +137,11 @@ impl State {
         let lights = prepared
             .lights
             .iter()
-            .map(|l| LightState { at: l.at.to_array(), color: l.color.to_array(), intensity: l.intensity })
+            .map(|l| LightState {
+                at: world(prepared.origin, l.at).to_array(),
+                color: l.color.to_array(),
+                intensity: l.intensity,
+            })
             .collect();
         let terms = pipeline
             .terms
@@ -184,10 +188,12 @@ impl State {
             }
             m.n = s.n;
         }
+        let origin = prepared.origin;
         for (l, s) in prepared.lights.iter_mut().zip(&self.lights) {
             let (at, colour) = (Vec3::from(s.at), Vec3::from(s.color));
-            if !at.is_finite() || at.abs().max_element() > 1e6 {
-                return Err("a light's position must be finite, within 1e6".into());
+            // Within 1e6 of the camera, wherever the scene is.
+            if !at.is_finite() || (at.as_dvec3() - origin).abs().max_element() > 1e6 {
+                return Err("a light's position must be finite, within 1e6 of the camera".into());
             }
             if !colour.is_finite() || colour.min_element() < 0.0 || colour.max_element() > 1000.0 {
                 return Err("a light's colour channels must be in [0, 1000]".into());
@@ -195,7 +201,12 @@ impl State {
             if !(0.0..=1e6).contains(&s.intensity) {
                 return Err("a light's intensity must be in [0, 1e6]".into());
             }
-            (l.at, l.color, l.intensity) = (at, colour, s.intensity);
+            // A light left where it was keeps its position as prepared (the world one rounded to
+            // f32 may be coarser); a moved one is placed from the prepared frame's origin.
+            if at != world(origin, l.at) {
+                l.at = (at.as_dvec3() - origin).as_vec3();
+            }
+            (l.color, l.intensity) = (colour, s.intensity);
         }
         let model = &self.model;
         if model.max_depth > 64 {
@@ -217,6 +228,12 @@ impl State {
             .map_err(|e| format!("shadows: {e}"))?;
         Pipeline::new(model.max_depth, shadows, terms).map_err(|e| e.to_string())
     }
+}
+
+/// The world position, rounded to f32, of the point `at` of a prepared frame whose origin is
+/// `origin`.
+fn world(origin: glam::DVec3, at: Vec3) -> Vec3 {
+    (origin + at.as_dvec3()).as_vec3()
 }
 
 /// The registry as the page lists it: every term with its variants and parameters, every
@@ -250,4 +267,32 @@ pub fn registry_json(registry: &Registry) -> Value {
         })
         .collect();
     serde_json::json!({ "terms": terms, "shadows": shadows })
+}
+
+#[cfg(test)]
+mod tests {
+    use lancer_shading::Registry;
+
+    use super::State;
+
+    #[test]
+    fn lights_far_from_the_origin_are_edited_in_world_coordinates() {
+        // The prepared lights are measured from the camera; the page sees and edits world ones.
+        let src = "[camera]\nfrom = [1000000, 2, -250000]\nto = [1000000, 0, -249990]\n\
+                   [[lights]]\nat = [1000003, 8.5, -249995]\n[[lights]]\nat = [999990, 6, -250001]\n\
+                   [[objects]]\nshape = \"sphere\"\ntranslate = [1000000, 0, -249990]\n";
+        let registry = Registry::with_builtins();
+        let l = lancer_scene::load_scene(src, "s.toml", &registry).unwrap();
+        let prepared = lancer_shading::prepare(&l.scene).unwrap();
+        assert_eq!(prepared.lights[0].at, glam::Vec3::new(3.0, 6.5, 5.0), "from the camera");
+        let mut state = State::of(&prepared, &l.pipeline, &l.places.materials, 1);
+        assert_eq!(state.lights[0].at, [1000003.0, 8.5, -249995.0]);
+        // Left where it is, a light keeps its prepared position to the bit; moved, it goes
+        // where the page puts it.
+        state.lights[1].at = [999991.0, 7.0, -250000.0];
+        let mut edited = prepared.clone();
+        state.apply(&mut edited, &registry).unwrap();
+        assert_eq!(edited.lights[0].at, prepared.lights[0].at);
+        assert_eq!(edited.lights[1].at, glam::Vec3::new(-9.0, 5.0, 0.0));
+    }
 }

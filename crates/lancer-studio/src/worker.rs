@@ -195,6 +195,7 @@ fn render_loop(shared: &Shared) {
                     part: None,
                     cancel: Some(&cancel),
                     layers: true,
+                    reference: false,
                 },
             );
             if cancel.load(Ordering::SeqCst) {

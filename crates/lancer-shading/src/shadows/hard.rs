@@ -27,17 +27,18 @@ struct Hard;
 
 impl ShadowModel for Hard {
     fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3 {
-        let Some((dir, dist)) = ctx.toward(at, light.at) else { return Vec3::ONE };
-        if ctx.blocked(at, dir, dist) { Vec3::ZERO } else { Vec3::ONE }
+        if ctx.blocked(at, light.at) { Vec3::ZERO } else { Vec3::ONE }
     }
 
     fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, light: &Light, out: &mut [Vec3]) {
         debug_assert_eq!(block.target(), light.at, "the block's rays go to the light");
         out[..block.len()].fill(Vec3::ONE);
-        // The shadow rays `blocked` traces: every hit's but one at the light itself.
+        // The shadow rays `blocked` traces, each aimed at the light from its start and as long
+        // as that (`transmissive` traces the same rays): every hit's but one within the start's
+        // offset of the light.
         block.rays_where(
-            |i| block.dist(i) > 0.0,
-            |lines, which| ctx.blocked_each(lines, |r| block.dist(which[r]), |r| out[which[r]] = Vec3::ZERO),
+            |i| block.left(i) > 0.0,
+            |lines, which| ctx.blocked_each(lines, |r| block.left(which[r]), |r| out[which[r]] = Vec3::ZERO),
         );
     }
 }

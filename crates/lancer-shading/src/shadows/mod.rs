@@ -43,7 +43,14 @@ mod tests {
             place(Shape::Disk, 0.8, Vec3::new(1.0, 2.5, -1.0), 0),
             place(Shape::Sphere, 0.3, Vec3::new(-1.0, 0.3, 2.0), 1),
         ]);
-        let scene = ShadeContext { geometry: &g, materials: &materials, lights: &[], max_depth: 5, textures: &[] };
+        let scene = ShadeContext {
+            geometry: &g,
+            materials: &materials,
+            lights: &[],
+            max_depth: 5,
+            textures: &[],
+            reference: false,
+        };
         let hits: Vec<_> = (0..300)
             .filter_map(|k| {
                 let a = k as f32 * 0.618_034;

@@ -88,17 +88,16 @@ fn seed(p: Vec3) -> u64 {
 impl ShadowModel for Soft {
     fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3 {
         if light.size <= 0.0 {
-            return match ctx.toward(at, light.at) {
-                Some((dir, dist)) => through_occluders(ctx, at, dir, dist, self.tint),
-                None => Vec3::ONE,
-            };
+            return through_occluders(ctx, at, light.at, self.tint);
         }
-        let seed = seed(at.point);
+        let seed = seed(at.local);
         let n = self.side * self.side;
         let mut sum = Vec3::ZERO;
         for cell in 0..n {
-            if let Some((dir, dist)) = ctx.toward(at, self.sample(light, seed, cell)) {
-                sum += through_occluders(ctx, at, dir, dist, self.tint);
+            let sample = self.sample(light, seed, cell);
+            // A sample at the hit point itself lends nothing (as in the blocks below).
+            if ctx.toward(at, sample).is_some() {
+                sum += through_occluders(ctx, at, sample, self.tint);
             }
         }
         sum / n as f32
@@ -121,7 +120,7 @@ impl ShadowModel for Soft {
             through_each(
                 ctx,
                 hits,
-                |i| self.sample(light, seed(hits[i].point), cell),
+                |i| self.sample(light, seed(hits[i].local), cell),
                 self.tint,
                 |i, through| {
                     if let Some(through) = through {

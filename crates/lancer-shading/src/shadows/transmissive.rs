@@ -40,10 +40,7 @@ struct Transmissive {
 
 impl ShadowModel for Transmissive {
     fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3 {
-        match ctx.toward(at, light.at) {
-            Some((dir, dist)) => through_occluders(ctx, at, dir, dist, self.tint),
-            None => Vec3::ONE,
-        }
+        through_occluders(ctx, at, light.at, self.tint)
     }
 
     fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, light: &Light, out: &mut [Vec3]) {
@@ -52,14 +49,15 @@ impl ShadowModel for Transmissive {
     }
 }
 
-/// The light left after crossing every object between the surface at `at` and the point at
-/// `dist` along `dir`: each transparent object crossed multiplies it by its `alpha` (and its
+/// The light left after crossing every object between the surface at `at` and the point
+/// `target` (each stretch of the way a shadow ray [`crate::aim`]ed at the target from where it
+/// starts): each transparent object crossed multiplies it by its `alpha` (and its
 /// colour where the ray enters, with `tint`) once; an opaque one stops it. A closed object counts
 /// once, from where the ray enters it to where it leaves ([`lancer_shapes::Geometry::past`], the
 /// same exit query as the refraction path); a surface with no inside (a disk, an open mesh)
 /// counts at each crossing, and the ray goes on beyond it.
-pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, dir: Vec3, dist: f32, tint: bool) -> Vec3 {
-    onward(ctx, at, dir, dist, tint, None)
+pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, target: Vec3, tint: bool) -> Vec3 {
+    onward(ctx, at, target, tint, None)
 }
 
 /// [`through_occluders`] from each hit of `block` along its straight ray, into `out`: the first
@@ -107,7 +105,7 @@ fn through_block(
     for (i, out) in out.iter_mut().enumerate().take(n) {
         *out = if ahead(i) {
             settled(ctx, block.origin(i).point, block.dir(i), first[i], tint, blocked[i])
-                .unwrap_or_else(|| onward(ctx, &block.hit(ctx, i), block.dir(i), block.dist(i), tint, Some(first[i])))
+                .unwrap_or_else(|| onward(ctx, &block.hit(ctx, i), block.target(), tint, Some(first[i])))
         } else {
             Vec3::ONE
         };
@@ -130,15 +128,15 @@ pub(crate) fn through_each(
     })
 }
 
-/// A block's shadow rays (origin, object skipped, direction, length left, distance to the
-/// target), each hit's ray (an index into them) or what it gets without one, and what each ray
+/// A block's shadow rays (origin, object skipped, direction, length, the point it goes to),
+/// each hit's ray (an index into them) or what it gets without one, and what each ray
 /// meets first.
 struct Columns {
     origin: [Packet; BLOCK / 8],
     skip: [u32; BLOCK],
     dir: [Packet; BLOCK / 8],
     left: [f32; BLOCK],
-    dist: [f32; BLOCK],
+    goal: [Vec3; BLOCK],
     ray: [Result<usize, Option<Vec3>>; BLOCK],
     first: [Option<(u32, lancer_shapes::ShapeHit)>; BLOCK],
 }
@@ -150,7 +148,7 @@ impl Columns {
             skip: [0; BLOCK],
             dir: [[[0.0; 8]; 3]; BLOCK / 8],
             left: [0.0; BLOCK],
-            dist: [0.0; BLOCK],
+            goal: [Vec3::ZERO; BLOCK],
             ray: [Err(None); BLOCK],
             first: [None; BLOCK],
         }
@@ -171,23 +169,24 @@ fn through_blocks(
     tint: bool,
     mut done: impl FnMut(usize, Option<Vec3>),
 ) {
-    let Columns { origin, skip, dir, left, dist, ray, first } = c;
+    let Columns { origin, skip, dir, left, goal, ray, first } = c;
     for (start, hits) in (0..).step_by(BLOCK).zip(hits.chunks(BLOCK)) {
         let mut rays = 0;
         for (i, at) in hits.iter().enumerate() {
             ray[i] = Err(None);
-            let Some((d, far)) = ctx.toward(at, target(start + i)) else { continue };
-            // The first stretch exactly as `onward` starts it.
-            let from = ctx.geometry.spawn(at, d);
-            let l = far - (from.point - at.point).dot(d);
-            if l <= 0.0 {
-                ray[i] = Err(Some(Vec3::ONE));
+            let to = target(start + i);
+            if ctx.toward(at, to).is_none() {
                 continue;
             }
+            // The first stretch exactly as `onward` starts it.
+            let Some((from, d, l)) = crate::aim(ctx.geometry, at, to) else {
+                ray[i] = Err(Some(Vec3::ONE));
+                continue;
+            };
             for axis in 0..3 {
                 (origin[rays / 8][axis][rays % 8], dir[rays / 8][axis][rays % 8]) = (from.point[axis], d[axis]);
             }
-            (skip[rays], left[rays], dist[rays]) = (from.skip, l, far);
+            (skip[rays], left[rays], goal[rays]) = (from.skip, l, to);
             ray[i] = Ok(rays);
             rays += 1;
         }
@@ -209,7 +208,7 @@ fn through_blocks(
                     let (from, d) = (lines.origin(r), lines.dir(r));
                     Some(
                         settled(ctx, from, d, first[r], tint, blocked[r])
-                            .unwrap_or_else(|| onward(ctx, at, d, dist[r], tint, Some(first[r]))),
+                            .unwrap_or_else(|| onward(ctx, at, goal[r], tint, Some(first[r]))),
                     )
                 }
             };
@@ -268,19 +267,17 @@ fn share(
 fn onward(
     ctx: &ShadowContext<'_>,
     at: &Hit,
-    dir: Vec3,
-    dist: f32,
+    target: Vec3,
     tint: bool,
     mut given: Option<Option<(u32, lancer_shapes::ShapeHit)>>,
 ) -> Vec3 {
     let mut light = Vec3::ONE;
     let mut surface = *at;
     for _ in 0..MAX_CROSSINGS {
-        let from = ctx.geometry.spawn(&surface, dir);
-        let left = dist - (from.point - at.point).dot(dir);
-        if left <= 0.0 {
+        // Each stretch aimed at the target from where it starts (past each object crossed).
+        let Some((from, dir, left)) = crate::aim(ctx.geometry, &surface, target) else {
             return light;
-        }
+        };
         // A stretch traced here, not handed in: a transparent object it crosses once, with
         // nothing else on it, settles the rest (as `settled` does for a block's first stretch).
         let (first, traced) = match given.take() {
@@ -336,7 +333,8 @@ mod tests {
         let facing_z = Affine3A::from_translation(at) * Affine3A::from_rotation_x(-std::f32::consts::FRAC_PI_2);
         objects.push(Object::new(Shape::Disk, facing_z * Affine3A::from_scale(Vec3::splat(1e-3)), 1).unwrap());
         let g = Geometry::new(objects);
-        let scene = ShadeContext { geometry: &g, materials: &materials, lights: &[], max_depth: 5, textures };
+        let scene =
+            ShadeContext { geometry: &g, materials: &materials, lights: &[], max_depth: 5, textures, reference: false };
         let ctx = ShadowContext::new(&scene);
         let hit = g.closest_hit(Origin::free(at + Vec3::new(0.0, 0.0, -1.0)), Vec3::Z, 0.0, 2.0).unwrap();
         assert_eq!(hit.object as usize, g.objects.len() - 1, "the shaded point is on the little disk");

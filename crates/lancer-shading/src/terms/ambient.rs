@@ -9,6 +9,8 @@
 //! terms = ["ambient"]
 //! ```
 
+use glam::Vec3;
+
 use crate::lanes::Group;
 use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec};
 
@@ -38,6 +40,15 @@ impl Term for Ambient {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        if ctx.reference {
+            for lane in chunk.hit_lanes() {
+                if let Some(colour) = reference(ctx, chunk, lane) {
+                    out.add(lane, colour);
+                }
+            }
+            return;
+        }
+        // Eight lanes at a time: `reference`'s arithmetic lane by lane (so the same bits).
         for group in Group::all(chunk.hits) {
             let (ambi, active) = group.param(ctx, chunk.hits, |m| m.ambi, |a| a > 0.0);
             if active != 0 {
@@ -46,4 +57,12 @@ impl Term for Ambient {
             }
         }
     }
+}
+
+/// The reference form, one hit at a time: `ambi · Col_Ω`, or nothing where `ambi` is not
+/// positive.
+fn reference(ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Option<Vec3> {
+    let ambi = ctx.material(chunk.hits, lane).ambi;
+    let col_omega = ctx.color(chunk.hits, lane);
+    (ambi > 0.0).then(|| ambi * col_omega)
 }

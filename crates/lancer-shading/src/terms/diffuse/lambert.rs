@@ -9,6 +9,7 @@
 //! terms = ["ambient", "diffuse"]
 //! ```
 
+use glam::Vec3;
 use wide::f32x8;
 
 use crate::lanes::{self, Group};
@@ -44,7 +45,15 @@ impl Term for Lambert {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
-        // Eight lanes at a time, `sum_lights`' arithmetic lane by lane (so the same bits).
+        if ctx.reference {
+            for lane in chunk.hit_lanes() {
+                if let Some(colour) = reference(ctx, chunk, lane) {
+                    out.add(lane, colour);
+                }
+            }
+            return;
+        }
+        // Eight lanes at a time, `reference`'s arithmetic lane by lane (so the same bits).
         for group in Group::all(chunk.hits) {
             // Skipped where `diff <= 0` (a NaN goes on, as lane by lane).
             let (diff, active) = group.param(ctx, chunk.hits, |m| m.diff, |d| d > 0.0 || d.is_nan());
@@ -58,4 +67,25 @@ impl Term for Lambert {
             out.add_lanes(group.base, active, &colour);
         }
     }
+}
+
+/// The reference form, one hit at a time: `Σ_lights diff · max(N·w, 0) · Col_Ω · Col_L · T`,
+/// with `N` the shading normal facing the ray and `Col_L · T` the light arriving from each light
+/// ([`Chunk::lights`]), summed as `diff · Col_Ω · Σ (N·w) · Col_L · T` over the lights in front of
+/// the surface that send something. Nothing where `diff` is not positive.
+fn reference(ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Option<Vec3> {
+    let diff = ctx.material(chunk.hits, lane).diff;
+    if diff <= 0.0 {
+        return None;
+    }
+    let n = chunk.hits.facing_normal(lane);
+    let mut sum = Vec3::ZERO;
+    for (w, col_l_t) in chunk.lights.lane(lane) {
+        let n_dot_w = n.dot(w);
+        // `max(N·w, 0)`: a light behind the surface, or wholly in shadow, adds nothing.
+        if n_dot_w > 0.0 && col_l_t != Vec3::ZERO {
+            sum += n_dot_w * col_l_t;
+        }
+    }
+    Some(diff * ctx.color(chunk.hits, lane) * sum)
 }

@@ -11,6 +11,7 @@
 //! terms = ["ambient", "diffuse", "specular", "mirror"]
 //! ```
 
+use glam::Vec3;
 use lancer_core::rays::PACKET;
 
 use crate::lanes::{self, Group};
@@ -46,8 +47,19 @@ impl Term for Mirror {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        if ctx.reference {
+            for lane in chunk.hit_lanes() {
+                if !out.can_spawn(lane) {
+                    continue;
+                }
+                if let Some((r_r, spec)) = reference(ctx, chunk, lane) {
+                    out.spawn(lane, r_r.from, r_r.dir, Vec3::splat(spec));
+                }
+            }
+            return;
+        }
         // Eight lanes at a time: the mirror directions and where the children start, with the
-        // bits `mirror_direction` and `Geometry::spawn` give lane by lane.
+        // bits `reference` gives lane by lane.
         for group in Group::all(chunk.hits) {
             // Skipped where `spec <= 0` (a NaN goes on, as lane by lane).
             let (spec, shiny) = group.param(ctx, chunk.hits, |m| m.spec, |s| s > 0.0 || s.is_nan());
@@ -69,4 +81,24 @@ impl Term for Mirror {
             out.spawn_lanes(group.base, active, &origin, &skip, &u_r, &[spec; 3]);
         }
     }
+}
+
+/// A ray to trace: where it starts (and the object it ignores), and its unit direction.
+struct Ray {
+    from: lancer_shapes::Origin,
+    dir: Vec3,
+}
+
+/// The reference form, one hit at a time: the reflected ray `R_r = [I, u_r)` with
+/// `u_r = u − 2(N·u)N` ([`crate::mirror_direction`]), starting where
+/// [`lancer_shapes::Geometry::spawn`] says, and its weight `spec`: once traced, it adds
+/// `spec · Col(R_r)`. Nothing where `spec` is not positive.
+fn reference(ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Option<(Ray, f32)> {
+    let spec = ctx.material(chunk.hits, lane).spec;
+    if spec <= 0.0 {
+        return None;
+    }
+    let (hit, u) = (ctx.hit(chunk.hits, lane), chunk.rays.dir.at(lane));
+    let u_r = crate::mirror_direction(&hit, u);
+    Some((Ray { from: ctx.geometry.spawn(&hit, u_r), dir: u_r }, spec))
 }

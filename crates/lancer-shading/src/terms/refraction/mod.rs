@@ -92,7 +92,7 @@ fn passage_with(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32, mut step: im
 /// The way through the object as [`crate::Term::explain`] notes: the entry `I`, `u_t`, the
 /// exit `J` (each total internal reflection on the way), `v_t`, and the length inside.
 pub fn passage_notes(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Vec<Note> {
-    let mut notes = vec![Note::vector("I (entry)", hit.point)];
+    let mut notes = vec![Note::point("I (entry)", hit.point)];
     if !hit.front {
         notes[0] = Note::text("I", "reached from inside: the ray leaves there");
     }
@@ -100,12 +100,12 @@ pub fn passage_notes(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Vec<
     let result = passage_with(ctx, hit, u, n, |step| match step {
         Step::Entered(u_t, j) => {
             notes.push(Note::vector("u_t = VctTransmis(u, −N, 1/n)", u_t));
-            notes.push(Note::vector("J (exit)", j));
+            notes.push(Note::point("J (exit)", j));
         }
         Step::Reflected(at, next) => {
             reflections += 1;
-            notes.push(Note::vector(format!("total internal reflection {reflections} at"), at));
-            notes.push(Note::vector("J (exit)", next));
+            notes.push(Note::point(format!("total internal reflection {reflections} at"), at));
+            notes.push(Note::point("J (exit)", next));
         }
         Step::Left(v_t) => notes.push(Note::vector("v_t = VctTransmis(u_t, N_j, n)", v_t)),
     });

@@ -55,6 +55,17 @@ impl Term for Refraction {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
+        if ctx.reference {
+            for lane in chunk.hit_lanes() {
+                if !out.can_spawn(lane) {
+                    continue;
+                }
+                if let Some((r_t, alpha)) = reference(ctx, chunk, lane) {
+                    out.spawn(lane, r_t.from, r_t.dir, Vec3::splat(alpha));
+                }
+            }
+            return;
+        }
         for group in Group::all(chunk.hits) {
             // The lanes with `alpha > 0` (a NaN goes on, as lane by lane) within the depth limit.
             let (alpha, clear) = group.param(ctx, chunk.hits, |m| m.alpha, |a| a > 0.0 || a.is_nan());
@@ -62,8 +73,9 @@ impl Term for Refraction {
             if clear == 0 {
                 continue;
             }
-            // Eight lanes at a time where they all went into one sphere from outside; the rest
-            // (and any total internal reflection) lane by lane, in lane order either way.
+            // Eight lanes at a time where they all went into one sphere from outside (the bits
+            // `reference` gives each); the rest (and any total internal reflection) by
+            // `reference`, in lane order either way.
             let object = chunk.hits.object[group.base + clear.trailing_zeros() as usize];
             let fronts = lanes::flag_bits(&chunk.hits.front[group.base..group.base + group.len]);
             let objects = &chunk.hits.object[group.base..group.base + group.len];
@@ -81,16 +93,29 @@ impl Term for Refraction {
                         out.spawn(lane, from, lanes::lane(&dir, j), Vec3::splat(alpha[j]));
                     }
                     _ => {
-                        let m = ctx.material(chunk.hits, lane);
-                        let hit = ctx.hit(chunk.hits, lane);
-                        if let Some(t) = passage(ctx, &hit, chunk.rays.dir.at(lane), m.n) {
-                            out.spawn(lane, t.from, t.dir, Vec3::splat(m.alpha));
+                        if let Some((r_t, alpha)) = reference(ctx, chunk, lane) {
+                            out.spawn(lane, r_t.from, r_t.dir, Vec3::splat(alpha));
                         }
                     }
                 }
             }
         }
     }
+}
+
+/// The reference form, one hit at a time: entering at `I`, `u_t = VctTransmis(u, −N, 1/n)`; the
+/// ray crosses the object unshaded to its exit `J` (normal `N_j`), `v_t = VctTransmis(u_t, N_j,
+/// n)` (total internal reflection at `J` reflects it inside, at most `max_depth` times), and
+/// `R_t = [J, v_t)` starts where [`lancer_shapes::Geometry::spawn`] says: all of it
+/// [`passage`]. Its weight is `alpha`: once traced, it adds `alpha · Col(R_t)`. Nothing where
+/// `alpha` is not positive or the ray never leaves.
+fn reference(ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Option<(super::Passage, f32)> {
+    let m = ctx.material(chunk.hits, lane);
+    if m.alpha <= 0.0 {
+        return None;
+    }
+    let r_t = passage(ctx, &ctx.hit(chunk.hits, lane), chunk.rays.dir.at(lane), m.n)?;
+    Some((r_t, m.alpha))
 }
 
 #[cfg(test)]
@@ -102,7 +127,7 @@ mod tests {
     use crate::terms::refraction::passage;
 
     fn ctx(geometry: &Geometry) -> ShadeContext<'_> {
-        ShadeContext { geometry, materials: &[], lights: &[], max_depth: 5, textures: &[] }
+        ShadeContext { geometry, materials: &[], lights: &[], max_depth: 5, textures: &[], reference: false }
     }
 
     fn glass(shape: Shape, m: Affine3A) -> Geometry {

@@ -18,7 +18,7 @@ use wide::{CmpLe, f32x8};
 
 use crate::lanes::{self, Group};
 use crate::term::facing;
-use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec, lit_by, sum_lights};
+use crate::{Chunk, Note, Params, ShadeContext, Term, TermOutput, TermSpec, lit_by};
 
 /// The spec registered as `specular`, variant `phong`.
 pub const SPEC: TermSpec = TermSpec {
@@ -67,8 +67,16 @@ impl Term for Phong {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
-        // Eight lanes at a time, the same arithmetic as `phong_factor` and `sum_lights` lane by
-        // lane (so the same bits); a lane whose exponent is not whole goes alone.
+        if ctx.reference {
+            for lane in chunk.hit_lanes() {
+                if let Some(colour) = reference(ctx, chunk, lane) {
+                    out.add(lane, colour);
+                }
+            }
+            return;
+        }
+        // Eight lanes at a time, the same arithmetic as `reference` lane by lane (so the same
+        // bits); a lane whose exponent is not whole goes alone, by `reference`.
         // The last material's answer: neighbouring hits mostly share a material, and its
         // exponent costs a division and a rounding.
         let mut last: Option<(u32, Option<Option<u32>>)> = None;
@@ -139,27 +147,43 @@ impl Term for Phong {
                     continue;
                 }
                 for (j, lane) in group.lanes(active | alone) {
-                    let add =
-                        if active & (1 << j) != 0 { lanes::lane(&colour, j) } else { self.lane(ctx, chunk, lane) };
+                    let add = if active & (1 << j) != 0 {
+                        lanes::lane(&colour, j)
+                    } else {
+                        reference(ctx, chunk, lane).unwrap_or(Vec3::ZERO)
+                    };
                     out.add(lane, add);
                 }
             } else {
                 for (_, lane) in group.lanes(alone) {
-                    out.add(lane, self.lane(ctx, chunk, lane));
+                    out.add(lane, reference(ctx, chunk, lane).unwrap_or(Vec3::ZERO));
                 }
             }
         }
     }
 }
 
-impl Phong {
-    /// The highlight of one lane (which has a hit on a shiny material), lane by lane.
-    fn lane(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec3 {
-        let m = ctx.material(chunk.hits, lane);
-        let (_, n) = facing(&chunk, lane);
-        let u = chunk.rays.dir.at(lane);
-        m.spec * sum_lights(&chunk, lane, n, |nw, w| phong_factor(m.shine, -u.dot(2.0 * nw * n - w)))
+/// The reference form, one hit at a time: `Σ_lights spec · shine · max(−u·w_r, 0)^(1/(1−shine))
+/// · Col_L · T` with `w_r = 2(N·w)N − w`, over the lights in front of the surface (`N·w > 0`,
+/// `N` the shading normal facing the ray) that send something (`Col_L · T`, [`Chunk::lights`]),
+/// summed as `spec · Σ shine · max(−u·w_r, 0)^(1/(1−shine)) · Col_L · T` ([`phong_factor`]).
+/// Nothing where the material has no highlight (`spec ≤ 0`, `shine ≤ 0` or `shine ≥ 1`).
+fn reference(ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Option<Vec3> {
+    let m = ctx.material(chunk.hits, lane);
+    if m.spec <= 0.0 || m.shine <= 0.0 || m.shine >= 1.0 {
+        return None;
     }
+    let n = chunk.hits.facing_normal(lane);
+    let u = chunk.rays.dir.at(lane);
+    let mut sum = Vec3::ZERO;
+    for (w, col_l_t) in chunk.lights.lane(lane) {
+        let n_dot_w = n.dot(w);
+        if n_dot_w > 0.0 && col_l_t != Vec3::ZERO {
+            let w_r = 2.0 * n_dot_w * n - w;
+            sum += phong_factor(m.shine, -u.dot(w_r)) * col_l_t;
+        }
+    }
+    Some(m.spec * sum)
 }
 
 #[cfg(test)]
