@@ -1,8 +1,10 @@
 //! `cargo xtask fuzz`: scenes from `scenes/` mutated line by line and token by token (lines
 //! deleted, duplicated or swapped; numbers replaced by `nan`, `inf`, `-0`, `1e38`, negative or
 //! huge values; junk tokens and tables inserted), each loaded, prepared and rendered tiny,
-//! in-process. Any panic, hang, unlocated error or non-finite pixel is a failure, written to
-//! `target/fuzz/`.
+//! in-process; now and then a scene's OBJ or PNG files mutated instead (PNG: bytes flipped,
+//! cut short, its header's size changed), and part-file headers of `lancer merge` mutated (their
+//! fields, layer names made paths or Lancer's own files). Any panic, hang, unlocated error,
+//! non-finite pixel or hostile layer name accepted is a failure, written to `target/fuzz/`.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -179,7 +181,8 @@ pub fn run(args: &[String]) -> Result<()> {
         .into_iter()
         .map(|p| std::fs::read_to_string(&p).map(|s| (p, s)))
         .collect::<Result<_, _>>()?;
-    let with_meshes: Vec<usize> = (0..seeds.len()).filter(|&k| seeds[k].1.contains(".obj")).collect();
+    let with_meshes: Vec<usize> =
+        (0..seeds.len()).filter(|&k| seeds[k].1.contains(".obj") || seeds[k].1.contains(".png")).collect();
     let out_dir = crate::root().join("target/fuzz");
     // Panics are caught and counted; their messages would drown the report.
     let default_hook = std::panic::take_hook();
@@ -188,7 +191,17 @@ pub fn run(args: &[String]) -> Result<()> {
     let mut tally = Tally::default();
     for i in 0..runs {
         let mut rng = fastrand::Rng::with_seed(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ i);
-        // One case in ten keeps a scene with meshes as it is and mutates its OBJ files instead.
+        // One case in twenty is a merge of part files, one of them with a mutated header.
+        if rng.usize(..20) == 0 {
+            let outcome = part_case(&mut rng);
+            tally.count(&outcome);
+            if let Outcome::Failure(why) = &outcome {
+                eprintln!("case {i} (part header): {why}");
+            }
+            continue;
+        }
+        // One case in ten keeps a scene with meshes or textures as it is and mutates its OBJ
+        // and PNG files instead.
         let meshes = (!with_meshes.is_empty() && rng.usize(..10) == 0).then(|| rng.u64(..));
         let (path, text) = match meshes {
             Some(_) => &seeds[with_meshes[rng.usize(..with_meshes.len())]],
@@ -259,6 +272,149 @@ enum Outcome {
     Rendered,
     LoadError(String),
     Failure(String),
+}
+
+/// A PNG file's bytes mutated: some bytes flipped, the file cut short, or its header's width
+/// and height replaced (the header's checksum made again, so the decoder reads them).
+fn mutate_png(rng: &mut fastrand::Rng, mut bytes: Vec<u8>) -> Vec<u8> {
+    match rng.usize(..3) {
+        0 if !bytes.is_empty() => {
+            for _ in 0..rng.usize(1..8) {
+                let i = rng.usize(..bytes.len());
+                bytes[i] ^= 1 << rng.u32(..8);
+            }
+        }
+        1 => bytes.truncate(rng.usize(..=bytes.len())),
+        _ if bytes.len() >= 33 => {
+            // IHDR: length (4), "IHDR" (4), width (4), height (4), ..., CRC at 29..33.
+            let sides = [0u32, 1, 7, 8192, 23_000, 65_535, 1 << 24, u32::MAX];
+            bytes[16..20].copy_from_slice(&sides[rng.usize(..sides.len())].to_be_bytes());
+            bytes[20..24].copy_from_slice(&sides[rng.usize(..sides.len())].to_be_bytes());
+            let crc = crc32(&bytes[12..29]);
+            bytes[29..33].copy_from_slice(&crc.to_be_bytes());
+        }
+        _ => {}
+    }
+    bytes
+}
+
+/// The CRC-32 of PNG chunks (ISO 3309, reflected, polynomial 0xEDB88320).
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = u32::MAX;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+        }
+    }
+    !c
+}
+
+/// Values a header mutation puts in a field.
+fn hostile_value(rng: &mut fastrand::Rng) -> serde_json::Value {
+    use serde_json::json;
+    let values = [
+        json!("../escaped"),
+        json!("/tmp/lancer-fuzz-escaped"),
+        json!("beauty"),
+        json!("manifest"),
+        json!("background"),
+        json!(""),
+        json!("a/b"),
+        json!("a\u{0}b"),
+        json!("\u{1b}[31m"),
+        json!("x".repeat(5000)),
+        json!("ambient"),
+        json!(null),
+        json!(-1),
+        json!(0),
+        json!(1),
+        json!(4_000_000_000u64),
+        json!(u64::MAX),
+        json!(1e300),
+        json!([]),
+        json!(["ambient", "ambient"]),
+        json!({}),
+    ];
+    values[rng.usize(..values.len())].clone()
+}
+
+/// Two parts of a small render, the second with its header mutated (a field replaced, removed,
+/// or a layer name made hostile), merged in memory: a merge must fail with an error or give
+/// layers named only as terms (or the background) are.
+fn part_case(rng: &mut fastrand::Rng) -> Outcome {
+    use lancer_cli::part::{Header, Sources, digest, encode, merge_bytes};
+    let (width, height) = (8u32, 40u32);
+    let layers = ["ambient", "diffuse", "background"];
+    let frame = lancer_core::Frame::from_layers(
+        width,
+        height,
+        layers
+            .iter()
+            .map(|n| lancer_core::Layer {
+                name: (*n).to_owned(),
+                pixels: vec![lancer_core::Vec3::splat(0.25); (width * height) as usize],
+            })
+            .collect(),
+        lancer_core::RenderStats::default(),
+    );
+    let sources = Sources {
+        scene: digest(b"scene"),
+        model_file: None,
+        files: vec![("tex.png".to_owned(), digest(b"tex"))],
+        model: digest(b"model"),
+        image: digest(b"image"),
+        version: "0".to_owned(),
+    };
+    let header = |index| Header {
+        identity: sources.fingerprint(),
+        sources: sources.clone(),
+        scene: "s.toml".to_owned(),
+        width,
+        height,
+        samples: 1,
+        model: "ambient, diffuse".to_owned(),
+        index,
+        count: 2,
+        band_rows: lancer_shading::TILE,
+        layers: layers.iter().map(|n| (*n).to_owned()).collect(),
+        rays: [1, 2, 3],
+        seconds: 0.5,
+    };
+    let (Ok(first), Ok(second)) = (encode(&header(0), &frame), encode(&header(1), &frame)) else {
+        return Outcome::Failure("a part of a valid render does not encode".to_owned());
+    };
+    let line = second.iter().position(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let end = line + second[line..].iter().position(|&b| b == b'\n').unwrap_or(second.len() - line);
+    let Ok(mut json) = serde_json::from_slice::<serde_json::Value>(&second[line..end]) else {
+        return Outcome::Failure("a valid part's header does not read".to_owned());
+    };
+    for _ in 0..rng.usize(1..4) {
+        let keys: Vec<String> = json.as_object().map(|o| o.keys().cloned().collect()).unwrap_or_default();
+        let key = keys[rng.usize(..keys.len())].clone();
+        match rng.usize(..4) {
+            0 => json["layers"][rng.usize(..3)] = hostile_value(rng),
+            1 => json[&key] = hostile_value(rng),
+            2 => {
+                json.as_object_mut().map(|o| o.remove(&key));
+            }
+            _ => json["sources"]["files"][0][0] = hostile_value(rng),
+        }
+    }
+    let mut mutated = second[..line].to_vec();
+    mutated.extend(serde_json::to_vec(&json).unwrap_or_default());
+    mutated.extend_from_slice(&second[end.min(second.len())..]);
+    let named = vec![("p0.lpart".into(), first), ("p1.lpart".into(), mutated)];
+    match std::panic::catch_unwind(|| merge_bytes(named)) {
+        Err(_) => Outcome::Failure(format!("merge panicked on the header {json}")),
+        Ok(Err(e)) => Outcome::LoadError(format!("{e:#}")),
+        Ok(Ok((frame, _, _))) => {
+            match frame.layers.iter().find(|l| !(lancer_shading::is_term_name(&l.name) || l.name == "background")) {
+                Some(l) => Outcome::Failure(format!("merge accepted the layer name {:?}", l.name)),
+                None => Outcome::Rendered,
+            }
+        }
+    }
 }
 
 /// One to four mutations of `text`.
@@ -374,11 +530,12 @@ fn case(dir: &Path, name: &str, text: &str, meshes: Option<u64>) -> Outcome {
             return Err("not a regular file under the limit".into());
         }
         let bytes = std::fs::read(&p).map_err(|e| e.to_string())?;
-        Ok(match (meshes, rel.ends_with(".obj")) {
-            (Some(seed), true) => {
+        Ok(match meshes {
+            Some(seed) if rel.ends_with(".obj") => {
                 let mut rng = fastrand::Rng::with_seed(seed);
                 mutate(&mut rng, &String::from_utf8_lossy(&bytes)).into_bytes()
             }
+            Some(seed) if rel.ends_with(".png") => mutate_png(&mut fastrand::Rng::with_seed(seed), bytes),
             _ => bytes,
         })
     };

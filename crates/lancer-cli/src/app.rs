@@ -443,7 +443,6 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
     let limits = lancer_scene::Limits {
         max_texture_pixels: args.max_texture_pixels,
         max_triangles: args.max_triangles,
-        ..Default::default()
     };
     let loaded =
         lancer_scene::load_scene_within(&src, &name, registry, &resolve, &limits).map_err(anyhow::Error::msg)?;

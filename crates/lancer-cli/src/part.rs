@@ -145,15 +145,7 @@ fn band_pixels(band: u32, width: u32, height: u32, rows: u32) -> std::ops::Range
 /// Writes part `header.index` of `frame` (rendered with only that part's bands) to `path`,
 /// whole or not at all.
 pub fn write(path: &Path, header: &Header, frame: &Frame) -> Result<()> {
-    let mut bytes = MAGIC.to_vec();
-    serde_json::to_writer(&mut bytes, header).context("encoding the part's header")?;
-    bytes.push(b'\n');
-    for band in lancer_shading::part_bands(frame.height, header.index, header.count) {
-        let range = band_pixels(band, frame.width, frame.height, header.band_rows);
-        for layer in &frame.layers {
-            bytes.extend_from_slice(bytemuck::cast_slice(&layer.pixels[range.clone()]));
-        }
-    }
+    let bytes = encode(header, frame)?;
     crate::output::write_atomic(path, &bytes).with_context(|| format!("writing part {}", path.display()))
 }
 
@@ -166,6 +158,11 @@ struct Part {
 
 fn read(path: &Path, limit: u64) -> Result<Part> {
     let bytes = crate::app::read_bytes(path, "part", limit).map_err(anyhow::Error::msg)?;
+    parse(path, bytes)
+}
+
+/// A part file's bytes (named `path` in messages), read and checked against its own header.
+fn parse(path: &Path, bytes: Vec<u8>) -> Result<Part> {
     let bad = |what: &str| anyhow::anyhow!("{}: not a Lancer part file ({what})", path.display());
     if bytes.starts_with(MAGIC_1) {
         return Err(bad("it is in the format of an earlier Lancer: render the part again"));
@@ -260,6 +257,34 @@ pub fn merge(paths: &[PathBuf], limit: u64) -> Result<(Frame, f64, String)> {
         bail!("no part files given");
     }
     let parts: Vec<Part> = paths.iter().map(|p| read(p, limit)).collect::<Result<_>>()?;
+    merge_parts(parts)
+}
+
+/// [`merge`] of part files given as their names and bytes, reading no file: what `cargo xtask
+/// fuzz` feeds mutated headers to.
+pub fn merge_bytes(parts: Vec<(PathBuf, Vec<u8>)>) -> Result<(Frame, f64, String)> {
+    if parts.is_empty() {
+        bail!("no part files given");
+    }
+    merge_parts(parts.into_iter().map(|(p, b)| parse(&p, b)).collect::<Result<_>>()?)
+}
+
+/// A part file's bytes: `header` (its index and count saying which bands of `frame`, rendered
+/// with only that part's bands, are written) and the pixels.
+pub fn encode(header: &Header, frame: &Frame) -> Result<Vec<u8>> {
+    let mut bytes = MAGIC.to_vec();
+    serde_json::to_writer(&mut bytes, header).context("encoding the part's header")?;
+    bytes.push(b'\n');
+    for band in lancer_shading::part_bands(frame.height, header.index, header.count) {
+        let range = band_pixels(band, frame.width, frame.height, header.band_rows);
+        for layer in &frame.layers {
+            bytes.extend_from_slice(bytemuck::cast_slice(&layer.pixels[range.clone()]));
+        }
+    }
+    Ok(bytes)
+}
+
+fn merge_parts(parts: Vec<Part>) -> Result<(Frame, f64, String)> {
     let first = &parts[0].header;
     for p in &parts[1..] {
         let h = &p.header;

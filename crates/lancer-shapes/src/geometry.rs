@@ -769,8 +769,7 @@ impl Geometry {
         let behind = flat | (outward & convex);
         let (rk, rc) = (f32x8::new(kind.map(|k| k.2.0)), f32x8::new(kind.map(|k| k.2.1)));
         let ahead = offset + (rk * reach + rc);
-        let origin: [f32x8; 3] =
-            std::array::from_fn(|a| behind.blend(p[a] - side[a] * offset, p[a] + side[a] * ahead));
+        let origin: [f32x8; 3] = std::array::from_fn(|a| behind.blend(p[a] - side[a] * offset, p[a] + side[a] * ahead));
         let skips = behind.to_array();
         let skip = std::array::from_fn(|k| if skips[k].to_bits() != 0 { object[k] } else { NO_SKIP });
         (origin.map(|c| c.to_array()), skip)

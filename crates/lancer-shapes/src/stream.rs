@@ -267,7 +267,8 @@ impl Block {
     fn ends_from(&self, target: Vec3, n: usize) -> f32 {
         let mut far = 0.0f32;
         for g in 0..n.div_ceil(W) {
-            let (t, ox, oy, oz) = (self.tmax[g].to_array(), self.o[0][g].to_array(), self.o[1][g].to_array(), self.o[2][g].to_array());
+            let (t, ox, oy, oz) =
+                (self.tmax[g].to_array(), self.o[0][g].to_array(), self.o[1][g].to_array(), self.o[2][g].to_array());
             let (dx, dy, dz) = (self.d[0][g].to_array(), self.d[1][g].to_array(), self.d[2][g].to_array());
             for k in 0..W.min(n - g * W) {
                 if !t[k].is_finite() {
@@ -909,12 +910,18 @@ mod tests {
         let mut checked = 0;
         for case in 0..60 {
             let scale: f32 = [1e-3, 1.0, 1e3, 1e6][case % 4];
-            let mut objects = vec![Object::new(
-                Shape::Cube,
-                Affine3A::from_scale_rotation_translation(Vec3::splat(1e6), Quat::IDENTITY, Vec3::new(0.0, -1e6, 0.0)),
-                0,
-            )
-            .unwrap()];
+            let mut objects = vec![
+                Object::new(
+                    Shape::Cube,
+                    Affine3A::from_scale_rotation_translation(
+                        Vec3::splat(1e6),
+                        Quat::IDENTITY,
+                        Vec3::new(0.0, -1e6, 0.0),
+                    ),
+                    0,
+                )
+                .unwrap(),
+            ];
             for k in 0..6 {
                 let shape = [Shape::Cube, Shape::Sphere, Shape::Torus { minor: 0.3 }][k % 3].clone();
                 let size = Vec3::new(f(0.2, 1.0), f(0.2, 1.0), f(0.2, 1.0)) * scale.min(3.0);
@@ -933,7 +940,14 @@ mod tests {
             let light = Vec3::new(f(-3.0, 3.0), f(6.0, 12.0), f(-3.0, 3.0));
             for _ in 0..4 {
                 let at = light + Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)) * 0.2;
-                objects.push(Object::new(Shape::Sphere, Affine3A::from_scale_rotation_translation(Vec3::splat(0.05), Quat::IDENTITY, at), 0).unwrap());
+                objects.push(
+                    Object::new(
+                        Shape::Sphere,
+                        Affine3A::from_scale_rotation_translation(Vec3::splat(0.05), Quat::IDENTITY, at),
+                        0,
+                    )
+                    .unwrap(),
+                );
             }
             let g = Geometry::new(objects.clone());
             assert!(!g.stream.is_empty());
@@ -951,7 +965,8 @@ mod tests {
                         break;
                     }
                     let to = patch + Vec3::new(f(-0.3, 0.3), f(-0.05, 0.05), f(-0.3, 0.3));
-                    let Some(hit) = g.closest_hit(crate::Origin::free(eye), (to - eye).normalize(), 0.0, f32::INFINITY) else {
+                    let Some(hit) = g.closest_hit(crate::Origin::free(eye), (to - eye).normalize(), 0.0, f32::INFINITY)
+                    else {
                         continue;
                     };
                     let (d0, dist) = ((light - hit.point).normalize(), (light - hit.point).length());
