@@ -440,10 +440,8 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
     };
 
     let load_start = Instant::now();
-    let limits = lancer_scene::Limits {
-        max_texture_pixels: args.max_texture_pixels,
-        max_triangles: args.max_triangles,
-    };
+    let limits =
+        lancer_scene::Limits { max_texture_pixels: args.max_texture_pixels, max_triangles: args.max_triangles };
     let loaded =
         lancer_scene::load_scene_within(&src, &name, registry, &resolve, &limits).map_err(anyhow::Error::msg)?;
     let load_time = load_start.elapsed();

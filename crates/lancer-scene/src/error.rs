@@ -197,16 +197,24 @@ impl std::fmt::Display for LoadError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}:{}:{}: {}", self.file, self.line, self.column, self.kind)?;
         if !self.source_line.is_empty() {
+            // A long line (a generated file's, a hostile one's) is shown around the place only.
+            const AROUND: usize = 60;
+            let (at, width) = (self.column - 1, self.width.min(80));
+            let from = at.saturating_sub(AROUND);
+            let to = at + width + AROUND;
+            let (before, after) = (from > 0, self.source_line.chars().nth(to).is_some());
+            let shown: String = self.source_line.chars().skip(from).take(to - from).collect();
             let gutter = self.line.to_string().len();
             write!(
                 f,
-                "\n{:gutter$} |\n{} | {}\n{:gutter$} | {}{}",
+                "\n{:gutter$} |\n{} | {}{shown}{}\n{:gutter$} | {}{}",
                 "",
                 self.line,
-                self.source_line,
+                if before { "…" } else { "" },
+                if after { "…" } else { "" },
                 "",
-                " ".repeat(self.column - 1),
-                "^".repeat(self.width)
+                " ".repeat(at - from + usize::from(before)),
+                "^".repeat(width)
             )?;
         }
         Ok(())
@@ -218,6 +226,28 @@ impl std::error::Error for LoadError {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn regression_an_error_on_a_megabyte_line_shows_the_line_around_its_place_only() {
+        // Found in review: a 2 MB dotted key's error printed all 2 MB of its line.
+        let src = format!("{}= 1 oops\n", "a.".repeat(1_000_000));
+        let at = src.find("oops").unwrap();
+        let lines = Lines::new(&src);
+        let e = LoadError::located("s.toml", &src, &lines, Some(at..at + 4), LoadErrorKind::Syntax("bad".into()));
+        let text = e.to_string();
+        assert!(text.len() < 400, "{} bytes", text.len());
+        let rows: Vec<&str> = text.lines().collect();
+        let (code, marks) = (rows[2], rows[3]);
+        assert!(code.starts_with("1 | …") && code.ends_with("= 1 oops"), "{code}");
+        // The carets stand under `oops`.
+        let caret = marks.find('^').unwrap();
+        assert_eq!(code.chars().skip(caret).take(4).collect::<String>(), "oops", "{code}\n{marks}");
+        // A short line is shown whole.
+        let short = "x = oops\n";
+        let e =
+            LoadError::located("s.toml", short, &Lines::new(short), Some(4..8), LoadErrorKind::Syntax("bad".into()));
+        assert!(e.to_string().ends_with("1 | x = oops\n  |     ^^^^"), "{e}");
+    }
 
     /// How places were found before the line table: counting from the start of the file.
     fn place_by_scanning(file: &str, src: &str, at: usize) -> Place {
