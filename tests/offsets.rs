@@ -85,3 +85,29 @@ fn a_hit_on_an_object_scaled_a_million_is_placed_to_its_own_rounding() {
     let up = geometry.spawn(&hit, glam::Vec3::Y);
     assert!(up.point.y.abs() < 1e-5, "the shadow ray starts a hair off the floor: {}", up.point);
 }
+
+#[test]
+fn regression_a_light_inside_a_glass_torus_is_dimmed_by_its_one_wall() {
+    // Found in review of the aimed shadow rays: the transmissive walk past a glass object that
+    // the light is inside went on from the far wall, back towards the light, and counted what
+    // lies between them: here an opaque ball in the tube beyond the light, which blacked out
+    // the floor below.
+    let scene = |shadows: &str| {
+        format!(
+            "[image]\nwidth = 33\nheight = 33\n[camera]\nfrom = [2, 0.5, -6]\nto = [2, 0, 0]\nfov = 20\n\
+             [model]\nterms = [\"ambient\", \"diffuse\"]\nshadows = \"{shadows}\"\n\
+             [[lights]]\nat = [2, 1.5, 0]\n\
+             [materials.glass]\ncolor = [1, 1, 1]\nalpha = 0.5\nn = 1.5\n\
+             [[objects]]\nshape = \"plane\"\n\
+             [[objects]]\nshape = \"torus\"\nminor = 0.3\nscale = 2\ntranslate = [0, 1.5, 0]\nmaterial = \"glass\"\n\
+             [[objects]]\nshape = \"sphere\"\nscale = 0.1\ntranslate = [2, 1.85, 0]\n"
+        )
+    };
+    let lit = render(&load(&scene("none")), None, 1);
+    let through = render(&load(&scene("transmissive")), None, 1);
+    // The middle pixel sees the floor right below the light, through the tube's lower wall.
+    let middle = 16 * 33 + 16;
+    let (a, b) = (diffuse(&lit)[middle], diffuse(&through)[middle]);
+    assert!(a.x > 0.05, "the floor there is lit: {a}");
+    assert!((b.x / a.x - 0.5).abs() < 1e-4, "one wall: alpha = 0.5 of the light, got {}", b.x / a.x);
+}

@@ -697,6 +697,7 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
             crate::output::write_atomic(path, run.json(&[]).as_bytes())
                 .with_context(|| format!("writing {}", path.display()))?;
         }
+        crate::output::outputs_done();
         Ok(())
     })?;
     if args.stats {
@@ -813,6 +814,7 @@ fn merge(args: MergeArgs) -> Result<()> {
         };
         write_aovs(dir, &frame, beauty, args.aov_format, &manifest)?;
     }
+    crate::output::outputs_done();
     if !args.quiet {
         eprintln!(
             "merged {} parts of {described} in {:.3} s ({:.3} s of rendering in all) -> {}{}",

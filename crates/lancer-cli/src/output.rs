@@ -334,6 +334,12 @@ pub fn create_output_dir(dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Every output of a run is in place: the folders it created are no longer its to remove if it
+/// is stopped now (`watch` goes on after its renders; Ctrl-C must not take their images).
+pub fn outputs_done() {
+    lock(&CREATED_DIRS).clear();
+}
+
 /// Removes every temporary file being written, and every output folder this run created with the
 /// files it wrote there (for an interrupt or a stop: no partial output is left).
 pub fn remove_temporaries() {
@@ -400,9 +406,15 @@ pub fn temporary_for(path: &Path) -> Result<tempfile::NamedTempFile> {
 impl Pending {
     /// Runs `fill` on a new temporary file beside `path`.
     fn begin(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<Pending> {
-        let file = temporary_for(path).with_context(|| format!("writing {}", path.display()))?;
-        let tmp = file.path().to_path_buf();
-        lock(&TEMPORARIES).push(tmp.clone());
+        // Created and registered under the registry's lock, so a stop in between (whose cleanup
+        // takes the lock) cannot miss it.
+        let (file, tmp) = {
+            let mut registry = lock(&TEMPORARIES);
+            let file = temporary_for(path).with_context(|| format!("writing {}", path.display()))?;
+            let tmp = file.path().to_path_buf();
+            registry.push(tmp.clone());
+            (file, tmp)
+        };
         // From here on, dropping `pending` (on an error) removes the temporary file.
         let mut pending = Pending { file: Some(file), tmp, path: path.to_path_buf() };
         let f = pending.file.as_mut().expect("just set").as_file_mut();
@@ -679,6 +691,13 @@ mod tests {
         assert!(!created.exists(), "the folder this run created is gone with its files");
         assert!(existing.join("mine.txt").exists() && existing.join("beauty.png").exists(), "an existing folder stays");
         drop(unfinished);
+        // Once a run's outputs are all in place, a stop takes nothing (a watch's earlier image).
+        let kept = folder.path().join("kept");
+        create_output_dir(&kept).unwrap();
+        write_atomic(&kept.join("beauty.exr"), b"x").unwrap();
+        outputs_done();
+        remove_under(folder.path());
+        assert!(kept.join("beauty.exr").exists(), "a finished run's folder stays");
     }
 
     #[test]

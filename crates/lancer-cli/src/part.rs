@@ -243,7 +243,7 @@ fn check_header(h: &Header) -> Result<(), String> {
     if !(1..=1 << 20).contains(&h.samples) {
         return Err(format!("says {} samples per pixel", h.samples));
     }
-    if !(h.seconds.is_finite() && h.seconds >= 0.0) || h.rays.iter().any(|&r| r > 1 << 56) {
+    if !(h.seconds.is_finite() && h.seconds >= 0.0) || h.rays.iter().any(|&r| r > 1 << 53) {
         return Err("has impossible statistics".to_owned());
     }
     Ok(())

@@ -56,11 +56,12 @@ pub fn watch(registry: &Registry, args: RenderArgs) -> Result<()> {
         // Each file with what it was just before it was read: a save made during the render
         // shows as a change below, and renders again (the image always ends up matching the
         // files' last state).
-        let mut read: Vec<(PathBuf, Option<Stamp>)> =
+        // (A file read twice keeps both stamps: either moving is a change.)
+        let read: Vec<(PathBuf, Option<Stamp>)> =
             inputs.into_inner().into_iter().map(|(p, s)| (absolute(&p), s)).collect();
-        read.sort();
-        read.dedup_by(|a, b| a.0 == b.0);
-        let files: Vec<PathBuf> = read.iter().map(|(p, _)| p.clone()).collect();
+        let mut files: Vec<PathBuf> = read.iter().map(|(p, _)| p.clone()).collect();
+        files.sort();
+        files.dedup();
         // Folders, not files: an editor that saves by renaming a new file over the old one
         // replaces what a watch on the file itself would follow.
         for file in &files {

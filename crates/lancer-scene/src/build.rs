@@ -663,6 +663,9 @@ fn one_index(obj: crate::obj::Obj) -> (Vec<Vec3>, Vec<Vec3>, Vec<glam::Vec2>, Ve
     (p, n, t, out)
 }
 
+/// A texture file's contents and the index of its decoded texture.
+type Decoded = (Vec<u8>, u32);
+
 /// Texture images loaded so far, each file once.
 struct Textures<'r> {
     list: Vec<Texture>,
@@ -670,7 +673,7 @@ struct Textures<'r> {
     by_path: HashMap<String, u32>,
     /// By the file's contents (their hash and length): the same file named two ways
     /// (`a.png`, `./a.png`) or copied is decoded once.
-    by_contents: HashMap<(u64, usize), u32>,
+    by_contents: HashMap<(u64, usize), Vec<Decoded>>,
     resolve: Resolver<'r>,
     /// Pixels the textures loaded so far hold.
     used: u64,
@@ -692,14 +695,16 @@ impl Textures<'_> {
             bytes.hash(&mut h);
             (h.finish(), bytes.len())
         };
-        let i = match self.by_contents.get(&key) {
-            Some(&i) => i,
+        // The same contents, compared byte for byte (a hash alone could mistake one for another).
+        let known = self.by_contents.get(&key).and_then(|same| same.iter().find(|(b, _)| *b == bytes)).map(|e| e.1);
+        let i = match known {
+            Some(i) => i,
             None => {
                 let texture = crate::texture::decode(&bytes, self.used, self.budget).map_err(bad)?;
                 self.used += texture.width as u64 * texture.height as u64;
                 self.list.push(texture);
                 let i = (self.list.len() - 1) as u32;
-                self.by_contents.insert(key, i);
+                self.by_contents.entry(key).or_default().push((bytes, i));
                 i
             }
         };

@@ -471,10 +471,15 @@ mod tests {
             assert_eq!((e.line, e.column, e.width), (line, column, width), "{}", head(&e));
             let expected = "the key `a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.…` is nested more than 64 levels deep";
             assert!(head(&e).contains(expected), "{}", head(&e));
-            // The source line shown, the key underlined.
+            // The source line shown, the key underlined (its first 80 characters).
             let text = e.to_string();
-            let underline =
-                format!("{:w$} | {}{}", "", " ".repeat(column - 1), "^".repeat(width), w = line.to_string().len());
+            let underline = format!(
+                "{:w$} | {}{}",
+                "",
+                " ".repeat(column - 1),
+                "^".repeat(width.min(80)),
+                w = line.to_string().len()
+            );
             assert_eq!((text.lines().count(), text.lines().last()), (4, Some(underline.as_str())));
         }
     }

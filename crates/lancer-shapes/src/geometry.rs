@@ -97,8 +97,9 @@ fn abs_row_sum(a: &Mat3A, b: &Mat3A) -> f32 {
 }
 
 /// How many times the bound on the rounding of an object's own test of a new ray a ray that may
-/// meet it again starts in front of it (twice: the origin's rounding, and the test's own).
-const REENTRY_MARGIN: f32 = 2.0;
+/// meet it again starts in front of it: twice (the origin's rounding, and the test's own), and
+/// √3 more, as the bound is per axis and the ray leaves along the normal (4 > 2√3).
+const REENTRY_MARGIN: f32 = 4.0;
 
 /// `γ₃` of f32.
 const GAMMA3: f32 = 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);
@@ -150,11 +151,25 @@ impl Object {
         // A world point `p` taken into object space in f32 is off by γ₃ (|M⁻¹| |p| + |T⁻¹|)
         // there, so by |M| times that in the world; the shape's test adds a few roundings of its
         // unit-sized coordinates, |M| γ₃ again.
-        let (inverse, to_object) = (object_from_world.matrix3, Vec3::from(object_from_world.translation).abs());
-        let stretch = abs_row_sum(&m, &Mat3A::IDENTITY);
-        let k = REENTRY_MARGIN * GAMMA3 * abs_row_sum(&m, &inverse);
-        let reach = Mat3A::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs()) * to_object;
-        let c = REENTRY_MARGIN * GAMMA3 * (reach.max_element() + stretch);
+        // A CSG solid's leaves take the point on into their own spaces: each leaf's placement in
+        // the world is rounded through as well (the terms of every leaf added: a bound).
+        let mut placements = vec![world_from_object];
+        if let Shape::Csg(csg) = &shape {
+            for node in csg.nodes() {
+                if let crate::CsgNode::Leaf { node_from_leaf, .. } = node {
+                    placements.push(world_from_object * *node_from_leaf);
+                }
+            }
+        }
+        let (mut k, mut c) = (0.0f32, 0.0f32);
+        for placed in &placements {
+            let Some(inverse) = invertible(placed) else { continue };
+            let m = placed.matrix3;
+            let to_object = Vec3::from(inverse.translation).abs();
+            let reach = Mat3A::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs()) * to_object;
+            k += REENTRY_MARGIN * GAMMA3 * abs_row_sum(&m, &inverse.matrix3);
+            c += REENTRY_MARGIN * GAMMA3 * (reach.max_element() + abs_row_sum(&m, &Mat3A::IDENTITY));
+        }
         let reentry = if k.is_finite() && c.is_finite() { (k, c) } else { (0.0, f32::INFINITY) };
         Some(Object {
             shape,

@@ -397,7 +397,8 @@ impl Shape {
                 }
                 let rho = (p.x * p.x + p.z * p.z).sqrt();
                 if rho == 0.0 {
-                    return plain(p, hit.normal);
+                    // On the axis (no side to project onto): the side is 1 away.
+                    return LocalSurface { error: 1.0, ..plain(p, hit.normal) };
                 }
                 let q = glam::DVec3::new(p.x / rho, p.y.clamp(-1.0, 1.0), p.z / rho);
                 plain(q, Vec3::new(q.x as f32, 0.0, q.z as f32).normalize_or(Vec3::X))
@@ -433,7 +434,8 @@ impl Shape {
             &Shape::Torus { minor } => {
                 let rho = (p.x * p.x + p.z * p.z).sqrt();
                 if rho == 0.0 {
-                    return plain(p, crate::torus::normal(p.as_vec3()));
+                    // On the axis: the tube is at most this far (the centre circle's distance).
+                    return LocalSurface { error: 1.0 + p.y.abs(), ..plain(p, crate::torus::normal(p.as_vec3())) };
                 }
                 // The nearest point of the tube: from the centre circle towards `p`, at `minor`.
                 let c = glam::DVec3::new(p.x / rho, 0.0, p.z / rho);

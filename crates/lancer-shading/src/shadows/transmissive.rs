@@ -90,8 +90,7 @@ fn through_block(
     first[..n].fill(None);
     // A ray with nothing left (a hit at the light, or within the start's offset of it) is not
     // traced: the light reaches it whole, as `onward` finds before tracing.
-    // (A NaN length, which `onward` would trace, counts as ahead.)
-    let ahead = |i: usize| block.left(i) > 0.0 || block.left(i).is_nan();
+    let ahead = |i: usize| block.left(i) > 0.0;
     let mut blocked = [true; BLOCK];
     block.rays_where(ahead, |lines, which| {
         ctx.occluders_through(
@@ -299,6 +298,8 @@ fn onward(
         light *= share(ctx, object, from.point, dir, &crossing, tint);
         let hit = ctx.geometry.objects[object as usize].hit(object, from.point, dir, &crossing);
         match ctx.geometry.past(&hit, dir) {
+            // Leaving it beyond the light: the light is inside it, and nothing else counts.
+            Some(past) if (past.point - from.point).dot(dir) >= left => return light,
             Some(past) => surface = past,
             // It never ends (a plane's half-space): the light is inside it.
             None => return light,
