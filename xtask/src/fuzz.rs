@@ -391,14 +391,21 @@ fn part_case(rng: &mut fastrand::Rng) -> Outcome {
     };
     for _ in 0..rng.usize(1..4) {
         let keys: Vec<String> = json.as_object().map(|o| o.keys().cloned().collect()).unwrap_or_default();
-        let key = keys[rng.usize(..keys.len())].clone();
-        match rng.usize(..4) {
-            0 => json["layers"][rng.usize(..3)] = hostile_value(rng),
-            1 => json[&key] = hostile_value(rng),
+        let Some(key) = (!keys.is_empty()).then(|| keys[rng.usize(..keys.len())].clone()) else { break };
+        // (Through `pointer_mut`: an earlier mutation may have made a field anything.)
+        let place = match rng.usize(..4) {
+            0 => format!("/layers/{}", rng.usize(..3)),
+            1 => format!("/{key}"),
             2 => {
-                json.as_object_mut().map(|o| o.remove(&key));
+                if let Some(o) = json.as_object_mut() {
+                    o.remove(&key);
+                }
+                continue;
             }
-            _ => json["sources"]["files"][0][0] = hostile_value(rng),
+            _ => "/sources/files/0/0".to_owned(),
+        };
+        if let Some(v) = json.pointer_mut(&place) {
+            *v = hostile_value(rng);
         }
     }
     let mut mutated = second[..line].to_vec();
