@@ -425,18 +425,18 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
         ),
         false => None,
     };
-    // Each file read once, by its real path, however the scene names it (`a.png`, `./a.png`).
-    let read_already = std::cell::RefCell::new(std::collections::HashMap::<PathBuf, Vec<u8>>::new());
     let resolve = |rel: &str| {
         let path = base.join(rel);
         inputs.borrow_mut().push((path.clone(), crate::watch::stamp(&path)));
-        let (real, bytes) = read_checked(&path, "file", args.max_file_size, folder.as_deref())
+        // (Read as often as the scene names it: the scene decodes a texture's contents once, and
+        // keeping the bytes here would hold every mesh file twice.)
+        let (_, bytes) = read_checked(&path, "file", args.max_file_size, folder.as_deref())
             .map_err(|e| e.replace(&format!("`{}`", path.display()), &format!("`{rel}`")))?;
         // Only a part of a render needs it: hashing a large mesh byte by byte is not free.
         if args.fingerprint {
             sources.borrow_mut().files.push((rel.to_owned(), crate::part::digest(&bytes)));
         }
-        Ok(read_already.borrow_mut().entry(real).or_insert(bytes).clone())
+        Ok(bytes)
     };
 
     let load_start = Instant::now();
