@@ -308,19 +308,14 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
 /// The bytes of the file `path` (a `what`: scene, model, file), if it is a regular file (not a
 /// device, a pipe or a folder, which could be read without end) of at most `limit` MB.
 pub(crate) fn read_bytes(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, String> {
-    read_checked(path, what, limit, None).map(|(_, bytes)| bytes)
+    read_checked(path, what, limit, None)
 }
 
 /// Reads the regular file `path` of at most `limit` MB (a `what`: scene, mesh...), and when
 /// `under` is given only if its real path is under that folder. The checks are made on the file
 /// opened, not on the path before it is opened: a file swapped for a link or another file between
-/// the check and the read is refused. Returns the file's real path with its bytes.
-pub(crate) fn read_checked(
-    path: &Path,
-    what: &str,
-    limit: u64,
-    under: Option<&Path>,
-) -> Result<(PathBuf, Vec<u8>), String> {
+/// the check and the read is refused.
+pub(crate) fn read_checked(path: &Path, what: &str, limit: u64, under: Option<&Path>) -> Result<Vec<u8>, String> {
     use std::io::Read;
     let fail = |e: std::io::Error| format!("reading {what} {}: {e}", path.display());
     // Looked at first so that a FIFO or a device is never opened (opening a FIFO would wait).
@@ -367,7 +362,7 @@ pub(crate) fn read_checked(
     if bytes.len() as u64 > max {
         return Err(too_big(bytes.len() as u64));
     }
-    Ok((real, bytes))
+    Ok(bytes)
 }
 
 fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
@@ -430,7 +425,7 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
         inputs.borrow_mut().push((path.clone(), crate::watch::stamp(&path)));
         // (Read as often as the scene names it: the scene decodes a texture's contents once, and
         // keeping the bytes here would hold every mesh file twice.)
-        let (_, bytes) = read_checked(&path, "file", args.max_file_size, folder.as_deref())
+        let bytes = read_checked(&path, "file", args.max_file_size, folder.as_deref())
             .map_err(|e| e.replace(&format!("`{}`", path.display()), &format!("`{rel}`")))?;
         // Only a part of a render needs it: hashing a large mesh byte by byte is not free.
         if args.fingerprint {

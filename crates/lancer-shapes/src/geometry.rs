@@ -450,7 +450,7 @@ impl Object {
         } else {
             lanes::unit_or(&lanes::linear(&self.world_from_object_normal, &n, None), Vec3::Y)
         };
-        let (mut point, mut error) = ([f32x8::ZERO; 3], [0.0f32; 8]);
+        let (mut point, mut error) = ([[0.0f32; 8]; 3], [0.0f32; 8]);
         for (half, q) in q.iter().enumerate() {
             // `Shape::surface`'s bound on the projected point.
             let own = f64x4::splat(8.0 * f64::EPSILON * 0.5) * (q[0].abs() + q[1].abs() + q[2].abs());
@@ -486,22 +486,13 @@ impl Object {
                 let n = Vec3::new(nn[0][lane], nn[1][lane], nn[2][lane]);
                 let (p, bound) = rounded(at(&w), at(&e), n);
                 for a in 0..3 {
-                    let mut c = point[a].to_array();
-                    c[lane] = p[a];
-                    point[a] = f32x8::new(c);
+                    point[a][lane] = p[a];
                 }
                 error[lane] = bound;
             }
         }
-        let error = f32x8::new(error);
         let front = lanes::dot(&normal, &wd).cmp_lt(f32x8::ZERO).move_mask() as u8;
-        Some(HitGroup {
-            point: point.map(|c| c.to_array()),
-            local: local.map(|c| c.to_array()),
-            normal: normal.map(|c| c.to_array()),
-            error: error.to_array(),
-            front,
-        })
+        Some(HitGroup { point, local: local.map(|c| c.to_array()), normal: normal.map(|c| c.to_array()), error, front })
     }
 
     /// Whether the world point `p` is inside the object's solid (never for a shape with no

@@ -174,11 +174,10 @@ fn through_blocks(
         for (i, at) in hits.iter().enumerate() {
             ray[i] = Err(None);
             let to = target(start + i);
-            if ctx.toward(at, to).is_none() {
-                continue;
-            }
-            // The first stretch exactly as `onward` starts it.
-            let Some((from, d, l)) = crate::aim(ctx.geometry, at, to) else {
+            let Some((leaving, _)) = ctx.toward(at, to) else { continue };
+            // The first stretch exactly as `onward` starts it (`aim`, its two halves).
+            let from = ctx.geometry.spawn(at, leaving);
+            let Some((from, d, l)) = crate::shadow::aim_from(from, leaving, to) else {
                 ray[i] = Err(Some(Vec3::ONE));
                 continue;
             };
