@@ -1,6 +1,7 @@
 //! Invariants every render keeps: each term adds exactly its own image to the beauty image, the
 //! beauty image is the same bits whether the per-term images are kept or not, the thread count
-//! changes no bit, and nothing is NaN (the last three on every scene in `scenes/`).
+//! changes no bit, and nothing is NaN (the last three on every scene in `scenes/`); a compact part
+//! holds the whole render's bands.
 
 use lancer_tests::{load_file, render, render_with, scene_files};
 
@@ -118,4 +119,40 @@ fn regression_lanes_alive_at_once_grew_with_samples_per_pixel() {
     assert!(p16 >= 2304, "{p16}");
     let bound = 2 * lancer_shading::WAVE as u64;
     assert!(p1024 <= bound, "{p1024} lanes alive at once at 1024 samples (bound {bound})");
+}
+
+#[test]
+fn a_compact_part_holds_its_bands_of_the_whole_render_one_under_the_other() {
+    // What the browser build's workers render: every k-th band of 16 rows, stacked. 150 rows
+    // make ten bands, the last 6 rows high, so parts that hold it end with a short band.
+    let loaded = load_file(std::path::Path::new("scenes/showcase.toml"));
+    let mut image = loaded.scene.image;
+    (image.width, image.height, image.samples) = (96, 150, 2);
+    let prepared = lancer_shading::prepare(&loaded.scene).unwrap();
+    let render = |part, compact| {
+        let options = lancer_shading::RenderOptions { layers: true, part, compact, ..Default::default() };
+        lancer_shading::render_prepared(&prepared, &loaded.scene.camera, &image, &loaded.pipeline, options)
+    };
+    let whole = render(None, false);
+    let row_len = 96 * 3;
+    let rows_of = |pixels: &[glam::Vec3]| -> Vec<Vec<u32>> {
+        let bits: Vec<u32> = pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect();
+        bits.chunks(row_len).map(<[u32]>::to_vec).collect()
+    };
+    for (index, count) in [(0, 1), (0, 3), (1, 3), (2, 3), (9, 10), (4, 7)] {
+        let part = render(Some((index, count)), true);
+        let bands: Vec<u32> = lancer_shading::part_bands(150, index, count).collect();
+        let expected_rows: Vec<u32> = bands.iter().flat_map(|b| b * 16..((b + 1) * 16).min(150)).collect();
+        assert_eq!(part.height as usize, expected_rows.len(), "part {index}/{count}");
+        assert_eq!(part.layers.len(), whole.layers.len());
+        for (got, want) in std::iter::once((&part.beauty, &whole.beauty))
+            .chain(part.layers.iter().map(|l| &l.pixels).zip(whole.layers.iter().map(|l| &l.pixels)))
+        {
+            let (got, want) = (rows_of(got), rows_of(want));
+            for (k, &y) in expected_rows.iter().enumerate() {
+                assert_eq!(got[k], want[y as usize], "part {index}/{count}: its row {k} is the image's row {y}");
+            }
+        }
+        assert!(part.stats.camera_rays > 0);
+    }
 }

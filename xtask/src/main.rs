@@ -7,6 +7,9 @@ mod fuzz;
 mod gallery;
 mod portable;
 mod studio;
+mod web;
+mod web_check;
+mod webdriver;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -43,6 +46,16 @@ tasks:
   portable-check [--width W] [FILTER]
             render every scene (default 160 wide) with the renderer built for this processor and
             with the portable x86-64 build; fail unless every EXR they write has the same bytes
+  web [--out DIR]
+            the browser build: lancer-wasm for wasm32-unknown-unknown (with and without SIMD), the
+            studio page set to render in the page, every shipped scene, into target/web/ (any
+            static web server serves it); installs wasm-bindgen-cli at the crate's version into
+            target/tools when missing
+  web-check [--screenshots DIR]
+            target/web served on loopback in headless Chromium (no other host reachable): every
+            shipped scene's layers against the native render's bits, a slider, a broken edit, an
+            EXR download, a dropped scene with an OBJ, a share link; screenshots at 1024x768 and
+            1920x1080 (default docs/web-WxH.png)
   renders [--width W] [FILTER]
             every scene's per-term images into target/renders/<scene>/";
 
@@ -74,6 +87,8 @@ fn run(args: Vec<String>) -> Result<()> {
         Some("portable-check") => portable::run(&args[1..]),
         Some("studio-check") => studio::check(&args[1..]),
         Some("renders") => renders(&args[1..]),
+        Some("web") => web::build(&args[1..]),
+        Some("web-check") => web_check::check(&args[1..]),
         Some("-h" | "--help") | None => {
             println!("{USAGE}");
             Ok(())

@@ -6,67 +6,14 @@
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Stdio};
+use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use serde_json::{Value, json};
 
+use crate::webdriver::{Driver, Killed};
 use crate::{build_renderer, root, which};
-
-/// A child process killed when dropped.
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-struct Driver {
-    base: String,
-    session: String,
-}
-
-impl Driver {
-    fn call(&self, method: &str, path: &str, body: Value) -> Result<Value> {
-        let url = format!("{}/session/{}{path}", self.base, self.session);
-        let response = match method {
-            "GET" => ureq::get(&url).call(),
-            "DELETE" => ureq::delete(&url).call(),
-            _ => ureq::post(&url).send_json(body),
-        };
-        let mut response = response.with_context(|| format!("WebDriver {method} {path}"))?;
-        let v: Value = response.body_mut().read_json().context("a WebDriver answer")?;
-        Ok(v["value"].clone())
-    }
-
-    /// Runs `script` (a function body; `arguments` are `args`) in the page.
-    fn js(&self, script: &str, args: Value) -> Result<Value> {
-        self.call("POST", "/execute/sync", json!({ "script": script, "args": args }))
-    }
-
-    /// Waits (up to 20 s) until `script` returns something truthy, and returns it.
-    fn until(&self, what: &str, script: &str) -> Result<Value> {
-        let start = Instant::now();
-        loop {
-            let v = self.js(script, json!([]))?;
-            if !(v.is_null() || v == json!(false)) {
-                return Ok(v);
-            }
-            if start.elapsed() > Duration::from_secs(20) {
-                let error = self.js("return document.getElementById('error').textContent", json!([]))?;
-                bail!("waited 20 s for {what} (page error: {error})");
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-}
-
-fn free_port() -> Result<u16> {
-    Ok(std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port())
-}
 
 /// The generation of the newest full frame, once it is newer than `after`.
 const FULL_AFTER: &str = "const f = window.studio && window.studio.frame(); return f && !f.coarse && f.generation > arguments[0] ? f.generation : null;";
@@ -109,31 +56,7 @@ pub fn check(args: &[String]) -> Result<()> {
         line.trim().strip_prefix("Lancer studio: ").with_context(|| format!("serve printed `{line}`"))?.to_owned();
     println!("serve: {url}");
 
-    let port = free_port()?;
-    let _driver = Killed(
-        Command::new(chromedriver)
-            .arg(format!("--port={port}"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .context("starting chromedriver")?,
-    );
-    let base = format!("http://127.0.0.1:{port}");
-    let start = Instant::now();
-    let session = loop {
-        let caps = json!({ "capabilities": { "alwaysMatch": { "goog:chromeOptions": {
-            "args": ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1500,1000"]
-        } } } });
-        match ureq::post(&format!("{base}/session")).send_json(&caps) {
-            Ok(mut r) => {
-                let v: Value = r.body_mut().read_json()?;
-                break v["value"]["sessionId"].as_str().context("a WebDriver session")?.to_owned();
-            }
-            Err(_) if start.elapsed() < Duration::from_secs(10) => std::thread::sleep(Duration::from_millis(100)),
-            Err(e) => bail!("chromedriver did not start a session: {e}"),
-        }
-    };
-    let d = Driver { base, session };
+    let (d, _driver) = crate::webdriver::start(chromedriver, (1500, 1000))?;
     let result = run(&d, &url, &scene, &original, &screenshot);
     let _ = d.call("DELETE", "", json!({}));
     let _ = std::fs::remove_dir_all(&work);

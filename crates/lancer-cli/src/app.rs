@@ -57,6 +57,10 @@ enum Command {
     Export(ExportArgs),
     /// List every registered term, its variants and parameters, and every shadow model.
     Terms,
+    /// Compare two images, or two `--aov` folders term by term: PSNR, absolute errors, ꟻLIP, the
+    /// worst region, and the usual mismatches named (upside down, sRGB curve, a factor, channel
+    /// order, a shifted pixel grid); exit 0 pass, 1 differ, 2 bad input.
+    Diff(crate::diff::DiffArgs),
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -298,6 +302,7 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
         Some(Command::Merge(args)) => merge(args),
         Some(Command::Export(args)) => export(registry, args),
         Some(Command::Serve(args)) => serve(registry, args),
+        Some(Command::Diff(args)) => crate::diff::run(args),
         Some(Command::Terms) => {
             print!("{}", crate::listing::terms(registry));
             Ok(())
@@ -646,6 +651,7 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
                 // Per-term images only where they are written: --aov, or a part of a frame.
                 layers: args.aov.is_some() || args.tile.is_some(),
                 reference: args.reference,
+                compact: false,
             },
         )
     });
@@ -745,12 +751,9 @@ fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
             pipeline: loaded.pipeline,
         })
     });
-    let explainer: lancer_studio::Explainer = std::sync::Arc::new(|e, scene, image, pipeline| {
-        crate::explain::Report { scene, image, pipeline, explanation: e }.json()
-    });
     let options =
         lancer_studio::Options { host: args.host, port: args.port, open: !args.no_open, allow_save: args.allow_save };
-    lancer_studio::serve(registry.clone(), loader, explainer, options)
+    lancer_studio::serve(registry.clone(), loader, options)
 }
 
 fn export(registry: &Registry, args: ExportArgs) -> Result<()> {
@@ -837,7 +840,7 @@ fn explain(registry: &Registry, args: ExplainArgs) -> Result<()> {
     }
     let explanation = lancer_shading::explain_pixel(&prepared, &scene.camera, &scene.image, &pipeline, x, y);
     let report =
-        crate::explain::Report { scene: &name, image: &scene.image, pipeline: &pipeline, explanation: &explanation };
+        lancer_output::Report { scene: &name, image: &scene.image, pipeline: &pipeline, explanation: &explanation };
     if args.json {
         println!("{}", report.json());
     } else {

@@ -1,10 +1,10 @@
 //! The `lancer` command as a library: [`main_with`] runs the whole command line with a registry
 //! of your choosing (so your own terms get `render`, `--aov`, `--model`, `terms`...), plus image
-//! encoding ([`output`]), part files of a render cut in parts ([`part`]) and the `lancer terms`
+//! output ([`output`], the encoders from `lancer-output`), part files of a render cut in parts ([`part`]) and the `lancer terms`
 //! text ([`listing`]).
 
 mod app;
-mod explain;
+mod diff;
 pub mod listing;
 pub mod output;
 pub mod part;

@@ -6,6 +6,7 @@ use std::fmt::Write;
 use std::time::Duration;
 
 use lancer_core::{ImageSettings, RenderStats};
+use lancer_output::Ordered;
 use lancer_shading::{ParamValue, Pipeline};
 use serde::Serialize;
 
@@ -216,26 +217,6 @@ impl Serialize for Params<'_> {
             }
         }
         map.end()
-    }
-}
-
-/// Pairs as a JSON object, in order.
-pub(crate) struct Ordered<'a, T>(Vec<(&'a str, T)>);
-
-impl<T: Serialize> Serialize for Ordered<'_, T> {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        let mut map = s.serialize_map(Some(self.0.len()))?;
-        for (k, v) in &self.0 {
-            map.serialize_entry(k, v)?;
-        }
-        map.end()
-    }
-}
-
-impl<'a, T> FromIterator<(&'a str, T)> for Ordered<'a, T> {
-    fn from_iter<I: IntoIterator<Item = (&'a str, T)>>(iter: I) -> Self {
-        Ordered(iter.into_iter().collect())
     }
 }
 

@@ -55,7 +55,7 @@ impl Camera {
             forward,
             right,
             up: right.cross(forward),
-            tan_half_fov: (fov_deg.to_radians() * 0.5).tan(),
+            tan_half_fov: libm::tanf(fov_deg.to_radians() * 0.5),
         })
     }
 

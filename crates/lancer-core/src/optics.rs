@@ -33,7 +33,7 @@ pub fn vct_transmis(u: Vec3, n_t: Vec3, delta: f32) -> Option<Vec3> {
 /// The critical angle (radians) for leaving a medium of index `n_inside` into one of `n_outside`.
 /// `None` when there is none (`n_inside <= n_outside`).
 pub fn critical_angle(n_inside: f32, n_outside: f32) -> Option<f32> {
-    (n_inside > n_outside).then(|| (n_outside / n_inside).asin())
+    (n_inside > n_outside).then(|| libm::asinf(n_outside / n_inside))
 }
 
 #[cfg(test)]

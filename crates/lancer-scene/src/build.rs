@@ -399,7 +399,18 @@ pub fn load_model_over(src: &str, file: &str, registry: &Registry, base: Pipelin
 fn placement(scale: Option<&Spanned<Scale>>, rotate: Option<[Num; 3]>, translate: Option<[Num; 3]>) -> Affine3A {
     let scale = scale.map_or(Vec3::ONE, |s| Vec3::from(s.get_ref().0));
     let [rx, ry, rz] = rotate.map_or([0.0; 3], |r| r.map(|Num(d)| d.to_radians()));
-    let rotation = Mat3::from_rotation_z(rz) * Mat3::from_rotation_y(ry) * Mat3::from_rotation_x(rx);
+    // Each turn's sine and cosine from `libm`, as glam's `from_rotation_*` lays them out: the
+    // platform's own sine may differ in the last bit, and the browser build must place objects
+    // as the native one does.
+    let turn = |angle: f32, axis: usize| {
+        let (s, c) = libm::sincosf(angle);
+        let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+        let mut m = [[0.0f32; 3]; 3];
+        m[axis][axis] = 1.0;
+        (m[a][a], m[a][b], m[b][a], m[b][b]) = (c, s, -s, c);
+        Mat3::from_cols_array_2d(&m)
+    };
+    let rotation = turn(rz, 2) * turn(ry, 1) * turn(rx, 0);
     Affine3A::from_mat3_translation(rotation * Mat3::from_diagonal(scale), translate.map_or(Vec3::ZERO, vec3))
 }
 

@@ -55,6 +55,11 @@ pub struct RenderOptions<'a> {
     /// `I` modulo `N` ([`part_bands`]); the rest of the frame stays black. The bands rendered
     /// are the same bits as in a whole render.
     pub part: Option<(u32, u32)>,
+    /// With [`RenderOptions::part`]: the frame holds only the part's bands, one under the
+    /// other from the top (its height is their rows; the last band of the image may be shorter
+    /// than [`TILE`]), the same bits as in a whole render. Without it a part's frame is the
+    /// whole image, black outside the part.
+    pub compact: bool,
     /// Checked before each tile: once it is set the remaining tiles are skipped (the frame is
     /// then incomplete; the caller that set it throws it away).
     pub cancel: Option<&'a std::sync::atomic::AtomicBool>,
@@ -125,7 +130,23 @@ pub fn render_prepared(
     let camera = &camera.seen_from(prepared.origin);
     let ctx = ShadeContext { reference: options.reference, ..shade_context(prepared, pipeline) };
     let lit = lit_materials(&ctx, pipeline);
-    let pixels = (width * height) as usize;
+    let bands_count = height.div_ceil(TILE) as usize;
+    // The bands rendered, and for each band of the image where its rows are kept: the image's
+    // own rows, or with `compact` one band under the other.
+    let mut bands: Vec<usize> = (0..bands_count).collect();
+    if let Some((index, count)) = options.part {
+        bands.retain(|b| *b as u32 % count.max(1) == index);
+    }
+    let compact = options.compact && options.part.is_some();
+    let band_rows = |b: usize| TILE.min(height - b as u32 * TILE);
+    let kept_rows: u32 = if compact { bands.iter().map(|&b| band_rows(b)).sum() } else { height };
+    let mut slot_of: Vec<usize> = (0..bands_count).collect();
+    if compact {
+        for (slot, &b) in bands.iter().enumerate() {
+            slot_of[b] = slot;
+        }
+    }
+    let pixels = (width * kept_rows) as usize;
     // Zeroed by the system, page by page as the tiles first write them: no pass over the whole
     // frame before the render.
     let mut layers: Vec<Layer> = if options.layers {
@@ -138,10 +159,9 @@ pub fn render_prepared(
     let mut beauty: Vec<Vec3> = bytemuck::zeroed_vec(pixels);
 
     if width == 0 || height == 0 {
-        return Frame { width, height, layers, beauty, stats: RenderStats::default() };
+        return Frame { width, height: kept_rows, layers, beauty, stats: RenderStats::default() };
     }
     let band_len = (TILE * width) as usize;
-    let bands_count = height.div_ceil(TILE) as usize;
     let mut per_layer: Vec<_> = layers.iter_mut().map(|l| l.pixels.chunks_mut(band_len)).collect();
     // Each band's rows of the beauty image and of every layer kept, behind a lock a tile holds
     // only to copy its pixels in: the tiles of one band may be rendered on different threads.
@@ -155,10 +175,6 @@ pub fn render_prepared(
     // Bands in a spread order (each band still writes only its own rows, so the frame is the
     // same): the tiles done at any moment sample the whole image, and the progress estimate
     // does not trust an easy sky for a costly floor.
-    let mut bands: Vec<usize> = (0..bands_count).collect();
-    if let Some((index, count)) = options.part {
-        bands.retain(|b| *b as u32 % count.max(1) == index);
-    }
     // One contiguous run of bands per thread, each run in a spread order: the tiles done at any
     // moment sample the whole image, and until one thread runs out of work and takes tiles
     // from the other's run, no two threads fault in pages of the same part of a layer at once
@@ -203,7 +219,7 @@ pub fn render_prepared(
             let mut lap = Lap::new(options.timing);
             // The tile's pixels into the band's rows of every layer kept, and their sum, in
             // layer order, into the beauty image.
-            let mut guard = rows[band].lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let mut guard = rows[slot_of[band]].lock().unwrap_or_else(std::sync::PoisonError::into_inner);
             let (sum, out) = &mut *guard;
             for row in 0..tile.h as usize {
                 let (at, from) = (row * width as usize + x0 as usize, row * tile.w as usize);
@@ -234,7 +250,7 @@ pub fn render_prepared(
         a
     });
     drop(rows);
-    Frame { width, height, layers, beauty, stats }
+    Frame { width, height: kept_rows, layers, beauty, stats }
 }
 
 /// The next tile for worker `me`: the front of its own run (`queues[me]`, indices into the tile

@@ -955,7 +955,8 @@ impl Geometry {
             let z = 1.0 - 2.0 * i / CHORDS as f32;
             let phi = i * 2.399_963;
             let r = (1.0 - z * z).max(0.0).sqrt();
-            let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let (sin, cos) = libm::sincosf(phi);
+            let dir = Vec3::new(r * cos, r * sin, z);
             let g = Vec3::new(0.819_172_5, 0.671_043_5, 0.549_700_5);
             let spread = (g * i).fract() - Vec3::splat(0.5);
             let target = centre + 0.9 * spread * size;

@@ -73,7 +73,7 @@ fn largest_cubic_root(a: f64, b: f64, c: f64) -> f64 {
         // One real root (Cardano): u + v with u³ the larger of −q/2 ± √disc (no cancellation)
         // and v from u v = −p/3: one cube root instead of two.
         let s = disc.sqrt();
-        let u = if q > 0.0 { -0.5 * q - s } else { -0.5 * q + s }.cbrt();
+        let u = libm::cbrt(if q > 0.0 { -0.5 * q - s } else { -0.5 * q + s });
         if u == 0.0 { 0.0 } else { u - p * THIRD / u }
     } else if p == 0.0 {
         0.0
@@ -81,7 +81,7 @@ fn largest_cubic_root(a: f64, b: f64, c: f64) -> f64 {
         // Three real roots (trigonometric form); k = 0 gives the largest.
         let m = 2.0 * (-p * THIRD).sqrt();
         let arg = (3.0 * q / (p * m)).clamp(-1.0, 1.0);
-        m * (arg.acos() * THIRD).cos()
+        m * libm::cos(libm::acos(arg) * THIRD)
     };
     let mut x = y - a3;
     // The trigonometric and Cardano forms lose digits near a multiple root (`disc` near zero

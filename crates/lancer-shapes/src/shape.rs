@@ -151,10 +151,10 @@ impl Shape {
     /// (0) to top (1) (around the tube, for a torus); each cube face gets the whole image.
     pub fn uv(&self, p: Vec3, scale: f32) -> glam::Vec2 {
         use std::f32::consts::{PI, TAU};
-        let around = 0.5 + p.z.atan2(p.x) / TAU;
+        let around = 0.5 + libm::atan2f(p.z, p.x) / TAU;
         let planar = glam::Vec2::new(p.x, p.z) / scale;
         match self {
-            Shape::Sphere => glam::Vec2::new(around, 0.5 + p.y.clamp(-1.0, 1.0).asin() / PI),
+            Shape::Sphere => glam::Vec2::new(around, 0.5 + libm::asinf(p.y.clamp(-1.0, 1.0)) / PI),
             Shape::Plane | Shape::Disk | Shape::Csg(_) | Shape::Mesh(_) => planar,
             Shape::Cylinder | Shape::Cone => {
                 if p.y.abs() >= 1.0 - 1e-4 {
@@ -165,7 +165,7 @@ impl Shape {
             }
             Shape::Torus { .. } => {
                 let rho = (p.x * p.x + p.z * p.z).sqrt();
-                glam::Vec2::new(around, 0.5 + p.y.atan2(rho - 1.0) / TAU)
+                glam::Vec2::new(around, 0.5 + libm::atan2f(p.y, rho - 1.0) / TAU)
             }
             Shape::Cube => {
                 let a = p.abs();

@@ -20,12 +20,12 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use serde::Deserialize;
 
-use crate::Timeouts;
+use crate::server::Timeouts;
 use crate::worker::{Shared, lock};
 
-const INDEX: &str = include_str!("page/index.html");
-const SCRIPT: &str = include_str!("page/app.js");
-const STYLE: &str = include_str!("page/app.css");
+const INDEX: &str = crate::PAGE[0].1;
+const SCRIPT: &str = crate::PAGE[1].1;
+const STYLE: &str = crate::PAGE[2].1;
 
 /// The most a request body or a WebSocket message may hold: an edit is a few kilobytes.
 const LIMIT: usize = 256 * 1024;
@@ -266,7 +266,7 @@ async fn explain(Axum(g): Axum<Guard>, Query(p): Query<Pixel>) -> Response {
         let pipeline = state.apply(&mut prepared, &shared.registry)?;
         image.samples = state.model.samples;
         let e = lancer_shading::explain_pixel(&prepared, &camera, &image, &pipeline, p.x, p.y);
-        Ok((shared.explainer)(&e, &name, &image, &pipeline))
+        Ok(lancer_output::Report { scene: &name, image: &image, pipeline: &pipeline, explanation: &e }.json())
     })
     .await;
     match result {
@@ -489,7 +489,7 @@ mod tests {
         let registry = Registry::with_builtins();
         let l = lancer_scene::load_scene(source, "scene.toml", &registry).expect("the scene loads");
         let prepared = lancer_shading::prepare(&l.scene).expect("the scene prepares");
-        let loaded = crate::Loaded {
+        let loaded = crate::server::Loaded {
             prepared,
             pipeline: l.pipeline,
             labels: l.places.materials,
@@ -502,8 +502,7 @@ mod tests {
             scene: l.scene,
         };
         let loader: crate::Loader = Arc::new(|| Err("no reload in a test".into()));
-        let explainer: crate::Explainer = Arc::new(|_, _, _, _| String::new());
-        let shared = crate::worker::start(registry, crate::SceneSlot::new(loaded), loader, explainer, true).unwrap();
+        let shared = crate::worker::start(registry, crate::server::SceneSlot::new(loaded), loader, true).unwrap();
         let token = new_token().unwrap();
         let (tx, rx) = std::sync::mpsc::channel();
         let (s, t) = (shared.clone(), token.clone());
@@ -514,7 +513,7 @@ mod tests {
                 let addr = listener.local_addr().unwrap();
                 tx.send(addr).unwrap();
                 let app = router(s, t, IpAddr::V4(Ipv4Addr::LOCALHOST), addr.port(), timeouts);
-                crate::run(listener, app, timeouts).await;
+                crate::server::run(listener, app, timeouts).await;
             });
         });
         Studio { addr: rx.recv().unwrap(), token, shared }

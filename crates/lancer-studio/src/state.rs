@@ -230,6 +230,20 @@ impl State {
     }
 }
 
+/// The image settings a render of `state` uses: the scene's, with the state's samples per pixel;
+/// the coarse image, shown at once while the full one renders, a quarter of the size at one
+/// sample per pixel.
+pub fn image_for(base: &lancer_core::ImageSettings, state: &State, coarse: bool) -> lancer_core::ImageSettings {
+    let mut image = *base;
+    image.samples = state.model.samples;
+    if coarse {
+        image.width = (image.width / 4).max(1);
+        image.height = (image.height / 4).max(1);
+        image.samples = 1;
+    }
+    image
+}
+
 /// The world position, rounded to f32, of the point `at` of a prepared frame whose origin is
 /// `origin`.
 fn world(origin: glam::DVec3, at: Vec3) -> Vec3 {

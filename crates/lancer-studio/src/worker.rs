@@ -12,7 +12,8 @@ use notify_debouncer_mini::notify::RecursiveMode;
 use serde_json::json;
 use tokio::sync::{broadcast, watch};
 
-use crate::{Explainer, Loader, SceneSlot, State};
+use crate::State;
+use crate::server::{Loader, SceneSlot};
 
 /// A rendered frame as sent to the page, in messages of at most [`CHUNK`] floats: each a
 /// little-endian `u32` header length, the JSON header (`generation`, `width`, `height`, `coarse`,
@@ -37,7 +38,6 @@ pub(crate) struct Shared {
     pub current: Mutex<State>,
     pub frames: watch::Sender<Option<FrameBytes>>,
     pub events: broadcast::Sender<String>,
-    pub explainer: Explainer,
     /// Whether the page may write the scene file.
     pub allow_save: bool,
 }
@@ -106,13 +106,7 @@ impl Shared {
     }
 }
 
-pub(crate) fn start(
-    registry: Registry,
-    slot: SceneSlot,
-    loader: Loader,
-    explainer: Explainer,
-    allow_save: bool,
-) -> Result<Arc<Shared>> {
+pub(crate) fn start(registry: Registry, slot: SceneSlot, loader: Loader, allow_save: bool) -> Result<Arc<Shared>> {
     let (frames, _) = watch::channel(None);
     let (events, _) = broadcast::channel(64);
     let state = slot.loaded.clone();
@@ -127,7 +121,6 @@ pub(crate) fn start(
         current: Mutex::new(state.clone()),
         frames,
         events,
-        explainer,
         allow_save,
     });
     let worker = shared.clone();
@@ -168,13 +161,7 @@ fn render_loop(shared: &Shared) {
             }
         };
         for coarse in [true, false] {
-            let mut image = base_image;
-            image.samples = state.model.samples;
-            if coarse {
-                image.width = (image.width / 4).max(1);
-                image.height = (image.height / 4).max(1);
-                image.samples = 1;
-            }
+            let image = crate::state::image_for(&base_image, &state, coarse);
             let start = Instant::now();
             let last = Mutex::new(Instant::now());
             let progress = |done: usize, total: usize| {
@@ -196,6 +183,7 @@ fn render_loop(shared: &Shared) {
                     cancel: Some(&cancel),
                     layers: true,
                     reference: false,
+                    compact: false,
                 },
             );
             if cancel.load(Ordering::SeqCst) {

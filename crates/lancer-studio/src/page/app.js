@@ -1,6 +1,8 @@
 // Lancer studio: the page. Frames arrive as linear float layers; everything about display
 // (exposure, false colour, zoom, snapshots) is done here without asking for a render; edits go
-// to the server, which renders the newest one.
+// to the engine, which renders the newest one. Two engines speak the same messages: `lancer
+// serve` over a WebSocket, or, in the browser build (`<body data-engine="wasm">`, made by
+// `cargo xtask web`), the renderer in WebAssembly in Web Workers (local-engine.js).
 "use strict";
 
 const $ = (id) => document.getElementById(id);
@@ -22,22 +24,37 @@ const FORMULAS = {
 };
 const RANGES = { ambi: [0, 1], diff: [0, 1], spec: [0, 1], shine: [0, 1], alpha: [0, 1], n: [1, 2.5] };
 
-// --- connection -------------------------------------------------------------------------
-const ws = new WebSocket(`ws://${location.host}/ws`);
-ws.binaryType = "arraybuffer";
-ws.onopen = () => status("connected");
-ws.onclose = () => status("disconnected: restart lancer serve and reload");
-ws.onmessage = (e) => {
-  if (typeof e.data === "string") return message(JSON.parse(e.data));
-  receiveFrame(e.data);
-};
+// --- the engines -----------------------------------------------------------------------
+const LOCAL = document.body.dataset.engine === "wasm";
+let engine = null;
+const handlers = { message, frame: showFrame };
+
+// `lancer serve`: frames and events over a WebSocket, the rest over HTTP.
+function serverEngine() {
+  const ws = new WebSocket(`ws://${location.host}/ws`);
+  ws.binaryType = "arraybuffer";
+  ws.onopen = () => status("connected");
+  ws.onclose = () => status("disconnected: restart lancer serve and reload");
+  ws.onmessage = (e) => {
+    if (typeof e.data === "string") return message(JSON.parse(e.data));
+    receiveFrame(e.data);
+  };
+  return {
+    send(state) { ws.send(JSON.stringify(state)); },
+    async explain(_state, x, y) { const r = await fetch(`/api/explain?x=${x}&y=${y}`); return { ok: r.ok, text: await r.text() }; },
+    async sceneText() { const r = await fetch("/api/scene.toml"); return { ok: r.ok, text: await r.text() }; },
+  };
+}
 
 function status(text) { $("status").textContent = text; }
+
+let fileState = null; // the state as the file has it (for "reset to the file")
 
 function message(m) {
   if (m.type === "hello") {
     registry = m.registry;
     state = m.state;
+    fileState = JSON.parse(JSON.stringify(m.state));
     width = m.width; height = m.height;
     $("scene").textContent = `${m.scene} · ${m.width}×${m.height}`;
     $("error").hidden = true;
@@ -45,7 +62,9 @@ function message(m) {
     $("warnings").textContent = m.warnings.join("\n");
     $("save").disabled = !m.can_save;
     $("save").title = m.can_save ? `write the edits into ${m.file}` : "start lancer serve with --allow-save";
+    sceneFile = m.file || "scene.toml";
     buildPanels();
+    if (!LOCAL) showSource();
   } else if (m.type === "error") {
     $("error").hidden = false;
     $("error").textContent = m.message + "\n(the last good image stays)";
@@ -70,12 +89,16 @@ function receiveFrame(buffer) {
   const n = header.width * header.height * 3;
   const floats = incoming.floats;
   const layers = header.layers.map((name, i) => ({ name, data: floats.subarray(i * n, (i + 1) * n) }));
-  frame = { width: header.width, height: header.height, coarse: header.coarse, layers, generation: header.generation };
   incoming = null;
-  studio.arrivals.push({ generation: header.generation, coarse: header.coarse, at: performance.now() });
+  showFrame({ width: header.width, height: header.height, coarse: header.coarse, layers, generation: header.generation, seconds: header.seconds });
+}
+
+function showFrame(f) {
+  frame = f;
+  studio.arrivals.push({ generation: f.generation, coarse: f.coarse, at: performance.now() });
   $("error").hidden = true;
-  $("progress").value = header.coarse ? 0 : 1;
-  status(`${header.coarse ? "coarse" : "full"} image in ${(header.seconds * 1000).toFixed(0)} ms`);
+  $("progress").value = f.coarse ? 0 : 1;
+  status(`${f.coarse ? "coarse" : "full"} image in ${(f.seconds * 1000).toFixed(0)} ms${LOCAL ? ` · ${engine.workers} workers${engine.simd ? ", SIMD" : ""}` : ""}`);
   draw();
 }
 
@@ -92,6 +115,14 @@ const studio = window.studio = {
     for (let i = 0; i < bits.length; i++) { h ^= bits[i]; h = Math.imul(h, 16777619) >>> 0; }
     return h;
   },
+  // A layer's floats as base64 of their little-endian bytes (to compare them with a native render).
+  layerBase64(name) {
+    const data = frame && layerData(name);
+    return data ? base64(new Uint8Array(data.buffer, data.byteOffset, data.byteLength)) : null;
+  },
+  // The last file offered for download: its name and bytes as base64.
+  lastDownload: null,
+  engineInfo: () => engine && { local: LOCAL, simd: !!engine.simd, workers: engine.workers || 0 },
   pixel(name, x, y) {
     const data = frame && layerData(name);
     const i = 3 * (y * frame.width + x);
@@ -211,9 +242,8 @@ $("main").addEventListener("click", async (e) => {
   const x = Math.floor((e.clientX - rect.left) / rect.width * width);
   const y = Math.floor((e.clientY - rect.top) / rect.height * height);
   $("inspector").textContent = `explaining pixel ${x},${y}…`;
-  const r = await fetch(`/api/explain?x=${x}&y=${y}`);
-  const text = await r.text();
-  if (!r.ok) { $("inspector").textContent = text; return; }
+  const { ok, text } = await engine.explain(state, x, y);
+  if (!ok) { $("inspector").textContent = text; return; }
   const doc = JSON.parse(text);
   $("inspector").textContent = explainText(doc, x, y);
   $("inspector").dataset.json = text;
@@ -249,7 +279,7 @@ function changed() {
   // One message per animation frame, the newest state: a storm of slider moves sends little.
   if (pending) return;
   pending = true;
-  requestAnimationFrame(() => { pending = false; ws.send(JSON.stringify(state)); });
+  requestAnimationFrame(() => { pending = false; engine.send(state); sourceFollows(); });
 }
 
 function el(tag, props = {}, ...children) {
@@ -345,15 +375,28 @@ function buildModel() {
 }
 
 // --- saving -----------------------------------------------------------------------------
-$("download").onclick = async () => {
-  const r = await fetch("/api/scene.toml");
-  const text = await r.text();
-  $("saved").classList.toggle("failed", !r.ok);
-  if (!r.ok) { $("saved").textContent = text; return; }
-  const name = (r.headers.get("content-disposition") || "").match(/filename="([^"]+)"/)?.[1] || "scene.toml";
-  const a = el("a", { href: URL.createObjectURL(new Blob([text], { type: "application/toml" })), download: name });
+let sceneFile = "scene.toml";
+
+function base64(bytes) {
+  let bin = "";
+  for (let i = 0; i < bytes.length; i += 0x8000) bin += String.fromCharCode.apply(null, bytes.subarray(i, i + 0x8000));
+  return btoa(bin);
+}
+
+function offer(bytes, name, type) {
+  studio.lastDownload = { name, bytes: typeof bytes === "string" ? btoa(unescape(encodeURIComponent(bytes))) : base64(bytes) };
+  const a = el("a", { href: URL.createObjectURL(new Blob([bytes], { type })), download: name });
   document.body.append(a); a.click(); a.remove();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+  $("saved").classList.remove("failed");
   $("saved").textContent = `downloaded ${name}`;
+}
+
+$("download").onclick = async () => {
+  const { ok, text } = await engine.sceneText(state);
+  $("saved").classList.toggle("failed", !ok);
+  if (!ok) { $("saved").textContent = text; return; }
+  offer(text, sceneFile, "application/toml");
 };
 $("save").onclick = async () => {
   const r = await fetch("/api/save", { method: "POST" });
@@ -362,3 +405,190 @@ $("save").onclick = async () => {
   $("saved").textContent = await r.text();
   $("saved").classList.toggle("failed", !r.ok);
 };
+
+// --- the scene text ---------------------------------------------------------------------
+// The editor shows the scene as it is now (the file with the sliders' edits written in). In the
+// browser build it is also where the scene is edited: a pause in typing loads the text, and a
+// located error marks its line and keeps the last image.
+let typing = null;
+let sourceBusy = false;
+
+function showSource() {
+  engine.sceneText(state).then(({ ok, text }) => { if (ok) setSource(text); });
+}
+
+function setSource(text) {
+  if ($("source").value === text) return;
+  $("source").value = text;
+  gutter();
+}
+
+// After a slider's edit, the text follows (not while the text itself is being edited).
+let following = null;
+function sourceFollows() {
+  if (document.activeElement === $("source")) return;
+  clearTimeout(following);
+  following = setTimeout(showSource, 150);
+}
+
+function gutter(bad = 0) {
+  const lines = $("source").value.split("\n").length;
+  const out = [];
+  for (let i = 1; i <= lines; i++) out.push(i === bad ? `<span class="bad">${i}</span>` : String(i));
+  $("gutter").innerHTML = out.join("\n");
+  $("gutter").scrollTop = $("source").scrollTop;
+}
+
+function sourceError(e) {
+  $("source-error").hidden = !e;
+  $("source-error").textContent = e ? e.message : "";
+  gutter(e ? e.line : 0);
+  if (e && e.line > 0) {
+    // The marked line in view.
+    const lineHeight = $("source").scrollHeight / Math.max(1, $("source").value.split("\n").length);
+    const top = (e.line - 3) * lineHeight;
+    if (top < $("source").scrollTop || top > $("source").scrollTop + $("source").clientHeight - 3 * lineHeight) $("source").scrollTop = Math.max(0, top);
+  }
+}
+
+$("source").addEventListener("scroll", () => { $("gutter").scrollTop = $("source").scrollTop; });
+$("source").addEventListener("input", () => {
+  gutter();
+  if (!LOCAL) return;
+  clearTimeout(typing);
+  typing = setTimeout(() => openScene(current.name, $("source").value, current.files, { keepText: true }), 350);
+});
+
+// --- scenes in the browser build ----------------------------------------------------------
+let shipped = [];           // scenes/index.json
+const shippedFiles = new Map(); // path from scenes/ -> bytes, every mesh and texture shipped
+let current = { name: "showcase.toml", original: "", files: new Map() };
+
+async function fetchBytes(url) {
+  const r = await fetch(url);
+  if (!r.ok) throw new Error(`fetching ${url}: ${r.status}`);
+  return new Uint8Array(await r.arrayBuffer());
+}
+
+async function loadShippedFiles() {
+  const wanted = [...new Set(shipped.flatMap((s) => s.files))].filter((f) => !shippedFiles.has(f));
+  await Promise.all(wanted.map(async (f) => shippedFiles.set(f, await fetchBytes(`scenes/${f}`))));
+}
+
+/// Loads `text` as the scene `name`, with `files` (name -> bytes): the hello and a render, or
+/// the located error in the editor (the last image stays).
+function openScene(name, text, files, { keepText = false, original = null } = {}) {
+  const hello = engine.load(name, text, files);
+  current = { name, files, original: original ?? current.original };
+  if (!keepText) setSource(text);
+  if (hello.error) {
+    sourceError(hello.error);
+    message({ type: "error", message: hello.error.message });
+    return false;
+  }
+  sourceError(null);
+  message(hello);
+  engine.send(state);
+  return true;
+}
+
+async function openShipped(path) {
+  const text = new TextDecoder().decode(await fetchBytes(`scenes/${path}`));
+  // Every shipped mesh and texture, by its path from scenes/ (a scene in a folder finds them
+  // by file name).
+  openScene(path.split("/").pop(), text, new Map(shippedFiles), { original: text });
+  $("scenes").value = path;
+}
+
+/// A scene opened from the machine: the first .toml file, and the others as the files it names.
+async function openFiles(list) {
+  const all = [...list];
+  const scene = all.find((f) => f.name.toLowerCase().endsWith(".toml"));
+  if (!scene) { message({ type: "error", message: `no scene among ${all.map((f) => f.name).join(", ")}: open a .toml file (with the .obj and .png files it names)` }); return; }
+  const files = new Map();
+  for (const f of all) if (f !== scene) files.set(f.webkitRelativePath || f.name, new Uint8Array(await f.arrayBuffer()));
+  // Shipped files fill in what was not given, unless a given one has the same file name.
+  const given = new Set([...files.keys()].map((n) => n.split("/").pop()));
+  for (const [path, bytes] of shippedFiles) if (!given.has(path.split("/").pop())) files.set(path, bytes);
+  const text = await scene.text();
+  openScene(scene.name, text, files, { original: text });
+  $("scenes").value = "";
+}
+
+// --- share links: the scene text in the URL's fragment (never sent to any server) -----------
+async function squeeze(text) {
+  const stream = new Blob([text]).stream().pipeThrough(new CompressionStream("deflate-raw"));
+  const bytes = new Uint8Array(await new Response(stream).arrayBuffer());
+  return base64(bytes).replace(/\+/g, "-").replace(/\//g, "_").replace(/=+$/, "");
+}
+
+async function unsqueeze(data) {
+  const bin = atob(data.replace(/-/g, "+").replace(/_/g, "/"));
+  const bytes = Uint8Array.from(bin, (c) => c.charCodeAt(0));
+  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("deflate-raw"));
+  return new Response(stream).text();
+}
+
+$("share").onclick = async () => {
+  const link = `${location.href.split("#")[0]}#scene=${await squeeze($("source").value)}&name=${encodeURIComponent(current.name)}`;
+  history.replaceState(null, "", link);
+  // A link carries the text only: files opened from the machine are not in it.
+  const own = [...current.files.keys()].filter((f) => !shippedFiles.has(f) && $("source").value.includes(f.split("/").pop()));
+  const note = own.length ? ` — it does not carry ${own.join(", ")}: whoever opens it must open ${own.length > 1 ? "them" : "it"} too` : "";
+  try { await navigator.clipboard.writeText(link); $("saved").textContent = `link copied (${link.length} characters): the scene travels in the link${note}`; } catch { $("saved").textContent = `the link is in the address bar${note}`; }
+};
+
+// --- images to download -------------------------------------------------------------------
+function downloadImage(format) {
+  if (!frame || frame.coarse) { $("saved").textContent = "wait for the full image"; return; }
+  const data = layerData(selected);
+  const bytes = engine.encode(format, frame.width, frame.height, data);
+  const stem = current.name.replace(/\.toml$/i, "");
+  offer(bytes, `${stem}-${selected}.${format}`, format === "png" ? "image/png" : "image/x-exr");
+}
+$("png").onclick = () => downloadImage("png");
+$("exr").onclick = () => downloadImage("exr");
+
+// --- reset ------------------------------------------------------------------------------------
+$("reset").onclick = () => {
+  if (LOCAL && $("source").value !== current.original) { openScene(current.name, current.original, current.files); return; }
+  if (!fileState) return;
+  state = JSON.parse(JSON.stringify(fileState));
+  buildPanels();
+  changed();
+};
+
+// --- start --------------------------------------------------------------------------------
+async function startLocal() {
+  status("loading the renderer…");
+  for (const id of ["scenes", "open", "share", "png", "exr"]) $(id).hidden = false;
+  $("save").hidden = true;
+  $("source").readOnly = false;
+  const local = await import("./local-engine.js");
+  const params = new URLSearchParams(location.search);
+  engine = await local.createLocalEngine(handlers, {
+    workers: params.has("workers") ? parseInt(params.get("workers")) : undefined,
+    simd: params.has("simd") ? params.get("simd") !== "0" : undefined,
+  });
+  if ("serviceWorker" in navigator && location.protocol !== "file:") navigator.serviceWorker.register("sw.js").catch(() => {});
+  shipped = await (await fetch("scenes/index.json")).json();
+  $("scenes").replaceChildren(el("option", { value: "", textContent: "(your scene)" }), ...shipped.map((s) => el("option", { value: s.path, textContent: `${s.path} — ${s.title}` })));
+  $("scenes").onchange = () => { if ($("scenes").value) openShipped($("scenes").value); };
+  $("open").onclick = () => $("files").click();
+  $("files").onchange = () => openFiles($("files").files);
+  document.addEventListener("dragover", (e) => { e.preventDefault(); document.body.classList.add("dropping"); });
+  document.addEventListener("dragleave", () => document.body.classList.remove("dropping"));
+  document.addEventListener("drop", (e) => { e.preventDefault(); document.body.classList.remove("dropping"); openFiles(e.dataTransfer.files); });
+  await loadShippedFiles();
+  const hash = new URLSearchParams(location.hash.slice(1));
+  if (hash.has("scene")) {
+    const text = await unsqueeze(hash.get("scene"));
+    openScene(hash.get("name") || "shared.toml", text, new Map(shippedFiles), { original: text });
+    $("scenes").value = "";
+  } else {
+    await openShipped(params.get("scene") || "showcase.toml");
+  }
+}
+
+if (LOCAL) startLocal().catch((e) => { $("error").hidden = false; $("error").textContent = `starting the renderer: ${e.message || e}`; });
+else engine = serverEngine();

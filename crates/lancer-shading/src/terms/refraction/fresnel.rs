@@ -95,7 +95,7 @@ impl Term for Fresnel {
             let absorption =
                 // The colour is what a unit of glass lets through: at most all of it.
                 if self.absorb > 0.0 {
-                    ctx.color(chunk.hits, lane).min(Vec3::ONE).powf(t.length / self.absorb)
+                    ctx.color(chunk.hits, lane).min(Vec3::ONE).to_array().map(|c| libm::powf(c, t.length / self.absorb)).into()
                 } else {
                     Vec3::ONE
                 };

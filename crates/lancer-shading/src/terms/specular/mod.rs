@@ -39,7 +39,7 @@ pub fn half_vector_lobe(n: Vec3, w: Vec3, u: Vec3, e: f32) -> f32 {
 pub fn lobe(c: f32, e: f32) -> f32 {
     match whole_power(e) {
         Some(whole) => c.powi(whole as i32),
-        None => c.powf(e),
+        None => libm::powf(c, e),
     }
 }
 

@@ -8,7 +8,7 @@ use lancer_core::frame::BACKGROUND;
 use lancer_shading::{NoteValue, Pipeline, PixelExplanation, RayNode};
 use serde::Serialize;
 
-use crate::stats::Ordered;
+use crate::Ordered;
 
 /// An explanation with what it needs to name things.
 pub struct Report<'a> {

@@ -1,0 +1,169 @@
+// Lancer in the browser: the page's local engine (the build of `cargo xtask web`). The renderer is
+// the wasm module (with SIMD where the browser runs it); N module Web Workers (N = the machine's
+// cores) each hold an instance with the scene loaded and render bands of 16 rows, worker I the
+// bands I, I+N, I+2N... as `lancer render --tile I/N` (one that runs out takes the last bands of
+// the fullest other share); the page puts the bands in place, so the frame is the bits of one
+// render. A worker gets its next band only when the last is back: a newer edit starts within a
+// band's time. One more instance, on the page's thread, loads each scene first (its errors),
+// explains pixels, writes the edited text and encodes downloads.
+"use strict";
+
+const TILE = 16;
+
+// A module of one function that uses a 128-bit vector instruction: valid only where the browser
+// runs WebAssembly SIMD.
+const SIMD_PROBE = new Uint8Array([0, 97, 115, 109, 1, 0, 0, 0, 1, 5, 1, 96, 0, 1, 123, 3, 2, 1, 0, 10, 10, 1, 8, 0, 65, 0, 253, 15, 253, 98, 11]);
+
+async function compile(url) {
+  try {
+    return await WebAssembly.compileStreaming(fetch(url));
+  } catch {
+    // A server that does not send .wasm as application/wasm.
+    const r = await fetch(url);
+    if (!r.ok) throw new Error(`fetching ${url}: ${r.status}`);
+    return WebAssembly.compile(await r.arrayBuffer());
+  }
+}
+
+/// Files (name -> Uint8Array) as the engine takes them: a JSON index of [name, offset, length]
+/// and one buffer.
+function pack(files) {
+  let size = 0;
+  for (const bytes of files.values()) size += bytes.length;
+  const blob = new Uint8Array(size);
+  const index = [];
+  let at = 0;
+  for (const [name, bytes] of files) { blob.set(bytes, at); index.push([name, at, bytes.length]); at += bytes.length; }
+  return { index: JSON.stringify(index), blob };
+}
+
+/// `on.message(m)` gets hello, error and progress messages (as from `lancer serve`), `on.frame(f)`
+/// each finished frame.
+export async function createLocalEngine(on, options = {}) {
+  const simd = options.simd ?? WebAssembly.validate(SIMD_PROBE);
+  const name = simd ? "lancer_simd" : "lancer_base";
+  const moduleUrl = new URL(`./pkg/${name}_bg.wasm`, import.meta.url);
+  const glueUrl = new URL(`./pkg/${name}.js`, import.meta.url).href;
+  const module = await compile(moduleUrl);
+  const glue = await import(glueUrl);
+  await glue.default({ module_or_path: module });
+  const main = new glue.Engine();
+  const count = Math.max(1, Math.min(16, options.workers ?? navigator.hardwareConcurrency ?? 2));
+
+  let scene = null;   // { key, name, source, index, blob, width, height }
+  let keys = 0;
+  let job = null;     // the render in progress: { generation, state, start, phases }
+  let generation = 0;
+
+  const workers = [];
+  function spawn(i) {
+    const w = { worker: new Worker(new URL("./render-worker.js", import.meta.url), { type: "module" }), ready: false, busy: false, key: null, index: i };
+    w.worker.onmessage = (e) => received(w, e.data);
+    w.worker.onerror = (e) => on.message({ type: "error", message: `render worker: ${e.message}` });
+    w.worker.postMessage({ type: "init", glue: glueUrl, module });
+    workers[i] = w;
+  }
+  for (let i = 0; i < count; i++) spawn(i);
+
+  function received(w, m) {
+    if (m.type === "ready") { w.ready = true; return pump(); }
+    if (m.type === "loaded") return;
+    w.busy = false;
+    if (m.type === "failed") {
+      if (m.fatal) { w.worker.terminate(); spawn(w.index); }
+      if (job && m.job && m.job.generation === job.generation) {
+        on.message({ type: "error", message: m.message });
+        job = null;
+      }
+      return pump();
+    }
+    if (m.type !== "rendered") return;
+    if (job && m.job.generation === job.generation) place(job.phases[m.job.phase], m);
+    pump();
+  }
+
+  // The bands of each worker's share, for an image `height` rows high.
+  function phase(coarse, width, height) {
+    const bands = Math.ceil(height / TILE);
+    const shares = workers.map((_, i) => { const s = []; for (let b = i; b < bands; b += workers.length) s.push(b); return s; });
+    return { coarse, width, height, bands, shares, got: 0, layers: null, rays: 0 };
+  }
+
+  function place(p, m) {
+    const h = m.header;
+    if (!p.layers) p.layers = h.layers.map((name) => ({ name, data: new Float32Array(p.width * p.height * 3) }));
+    const span = h.rows * h.width * 3;
+    h.layers.forEach((_, l) => {
+      const from = m.floats.subarray(l * span, (l + 1) * span);
+      p.layers[l].data.set(from, h.bands[0] * TILE * h.width * 3);
+    });
+    p.got += 1;
+    p.rays += h.rays;
+    const done = job.phases.reduce((n, q) => n + q.got, 0), total = job.phases.reduce((n, q) => n + q.bands, 0);
+    on.message({ type: "progress", done, total });
+    if (p.got === p.bands) {
+      on.frame({ width: p.width, height: p.height, coarse: p.coarse, layers: p.layers, generation: job.generation, seconds: (performance.now() - job.start) / 1000, rays: p.rays });
+      if (!p.coarse) job = null;
+    }
+  }
+
+  // The next band for worker `i`: its own share of the first phase that has one, else the last
+  // band of the fullest other share.
+  function next(i) {
+    for (const [k, p] of job.phases.entries()) {
+      if (p.shares[i].length) return { phase: k, band: p.shares[i].shift() };
+      const fullest = p.shares.reduce((a, s) => (s.length > a.length ? s : a), []);
+      if (fullest.length) return { phase: k, band: fullest.pop() };
+    }
+    return null;
+  }
+
+  function pump() {
+    if (!job || !scene) return;
+    for (const [i, w] of workers.entries()) {
+      if (!w.ready || w.busy) continue;
+      if (w.key !== scene.key) {
+        w.worker.postMessage({ type: "load", key: scene.key, name: scene.name, source: scene.source, index: scene.index, blob: scene.blob });
+        w.key = scene.key;
+      }
+      const n = next(i);
+      if (!n) continue;
+      const p = job.phases[n.phase];
+      w.busy = true;
+      w.worker.postMessage({ type: "render", key: scene.key, state: job.state, coarse: p.coarse, part: n.band, parts: p.bands, job: { generation: job.generation, phase: n.phase } });
+    }
+  }
+
+  const errorOf = (e) => { try { return JSON.parse(e); } catch { return { message: String(e && e.message || e), line: 0, column: 0 }; } };
+
+  return {
+    simd,
+    workers: count,
+    /// Loads a scene: its hello, or { error: { file, line, column, message } }; the previous
+    /// scene stays when this one fails.
+    load(name, source, files) {
+      const { index, blob } = pack(files);
+      let hello;
+      try { hello = JSON.parse(main.load(name, source, index, blob)); } catch (e) { return { error: errorOf(e) }; }
+      scene = { key: ++keys, name, source, index, blob, width: hello.width, height: hello.height };
+      job = null;
+      return hello;
+    },
+    /// Renders `state`: the coarse image first, then the full one; cancels the render before.
+    send(state) {
+      if (!scene) return;
+      const w = scene.width, h = scene.height;
+      const phases = [phase(true, Math.max(1, Math.floor(w / 4)), Math.max(1, Math.floor(h / 4))), phase(false, w, h)];
+      job = { generation: ++generation, state: JSON.stringify(state), start: performance.now(), phases };
+      pump();
+    },
+    async explain(state, x, y) {
+      try { return { ok: true, text: main.explain(JSON.stringify(state), x, y) }; } catch (e) { return { ok: false, text: String(e) }; }
+    },
+    async sceneText(state) {
+      try { return { ok: true, text: main.edited(JSON.stringify(state)) }; } catch (e) { return { ok: false, text: String(e) }; }
+    },
+    /// A linear image as a file's bytes: "png" or "exr", the bytes `lancer render` writes.
+    encode(format, width, height, floats) { return glue.Engine.encode(format, width, height, floats); },
+  };
+}
