@@ -341,7 +341,7 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
     full_after(d, "the edited glass", g)?;
     d.until(
         "the text with the edit",
-        "return document.getElementById('source').value.includes('shine = 0.9\n') || null",
+        "return document.getElementById('source').value.includes('shine = 0.9\\n') || null",
     )?;
     let beauty = hash("beauty")?;
     d.js("document.getElementById('share').click(); return true;", json!([]))?;
@@ -355,7 +355,19 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
     }
     println!("share link ({} characters): the same image", link.len());
 
-    // 7. Screenshots for the README.
+    // 7. The module without SIMD (for a browser without it) gives the same bits too.
+    d.call("POST", "/url", json!({ "url": format!("{base}?simd=0&scene=glass.toml") }))?;
+    full_after(d, "glass.toml without SIMD", 0)?;
+    let info = d.js("return window.studio.engineInfo()", json!([]))?;
+    if info["simd"] != json!(false) {
+        bail!("?simd=0 still runs the SIMD module: {info}");
+    }
+    let glass = scenes_dir.join("glass.toml");
+    let n = native("glass.toml", &std::fs::read_to_string(&glass)?, &|_| Err("no file".into()))?;
+    compare(d, "glass.toml without SIMD", &n)?;
+    println!("glass.toml with the module built without SIMD: every layer bit-identical to the native render");
+
+    // 8. Screenshots for the README.
     std::fs::create_dir_all(docs)?;
     for (w, h) in [(1024u32, 768u32), (1920, 1080)] {
         d.call("POST", "/window/rect", json!({ "width": w, "height": h }))?;

@@ -27,13 +27,18 @@ pub struct Driver {
 impl Driver {
     pub fn call(&self, method: &str, path: &str, body: Value) -> Result<Value> {
         let url = format!("{}/session/{}{path}", self.base, self.session);
+        // An error status carries the driver's message (a script's exception): read it too.
         let response = match method {
-            "GET" => ureq::get(&url).call(),
-            "DELETE" => ureq::delete(&url).call(),
-            _ => ureq::post(&url).send_json(body),
+            "GET" => ureq::get(&url).config().http_status_as_error(false).build().call(),
+            "DELETE" => ureq::delete(&url).config().http_status_as_error(false).build().call(),
+            _ => ureq::post(&url).config().http_status_as_error(false).build().send_json(body),
         };
         let mut response = response.with_context(|| format!("WebDriver {method} {path}"))?;
+        let ok = response.status().is_success();
         let v: Value = response.body_mut().read_json().context("a WebDriver answer")?;
+        if !ok {
+            bail!("WebDriver {method} {path}: {}", v["value"]["message"].as_str().unwrap_or(&v.to_string()));
+        }
         Ok(v["value"].clone())
     }
 

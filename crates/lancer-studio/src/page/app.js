@@ -183,7 +183,14 @@ function draw() {
     pixels = mixed;
   }
   canvas.getContext("2d").putImageData(new ImageData(pixels, frame.width, frame.height), 0, 0);
-  const zoom = parseFloat($("zoom").value) * (frame.coarse ? width / frame.width : 1);
+  // "fit": the whole image in the stage (the screen, full-screen); else whole screen pixels per
+  // image pixel, square.
+  const fit = $("zoom").value === "fit";
+  const stage = $("stage");
+  const room = document.fullscreenElement === stage
+    ? Math.min(stage.clientWidth / width, stage.clientHeight / height)
+    : Math.min(stage.clientWidth / width, (window.innerHeight * 0.7) / height);
+  const zoom = (fit ? Math.max(0.1, room) : parseFloat($("zoom").value)) * (frame.coarse ? width / frame.width : 1);
   canvas.style.width = `${frame.width * zoom}px`;
   canvas.style.height = `${frame.height * zoom}px`;
   $("showing").textContent = `showing ${selected}${useSnap ? " (snapshot left of the wipe)" : ""}${frame.coarse ? " — coarse, the full image follows" : ""}`;
@@ -228,6 +235,9 @@ $("keep").onclick = () => {
   $("showsnap").disabled = false; $("wipe").disabled = false;
   draw();
 };
+$("fullscreen").onclick = () => (document.fullscreenElement ? document.exitFullscreen() : $("stage").requestFullscreen());
+document.addEventListener("fullscreenchange", draw);
+window.addEventListener("resize", () => { if ($("zoom").value === "fit") draw(); });
 document.addEventListener("keydown", (e) => {
   if ((e.key === "f" || e.key === "F") && snapshot && e.target.tagName !== "INPUT") {
     $("showsnap").checked = !$("showsnap").checked;
