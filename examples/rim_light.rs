@@ -29,6 +29,7 @@ const RIM: TermSpec = TermSpec {
         ParamSpec { name: "power", default: "3", doc: "how thin the rim is (higher: thinner)" },
     ],
     build: build_rim,
+    mistake: None,
 };
 
 fn build_rim(p: &mut Params) -> Result<Box<dyn Term>, ParamError> {

@@ -51,7 +51,8 @@ fn every_built_in_term_variant_and_shadow_model_is_used_by_a_scene_or_model_file
     let mut files = lancer_tests::scene_files();
     files.extend(std::fs::read_dir(root().join("models")).unwrap().map(|e| e.unwrap().path()));
     let text: String = files.iter().map(|p| std::fs::read_to_string(p).unwrap()).collect();
-    for t in lancer_shading::terms::BUILTIN {
+    // The classic mistakes are shown by `lancer diagnose`'s tests, not by a shipped scene.
+    for t in lancer_shading::terms::BUILTIN.iter().filter(|t| t.mistake.is_none()) {
         assert!(text.contains(&format!("\"{}\"", t.name)), "no scene or model uses term `{}`", t.name);
         assert!(
             text.contains(&format!("variant = \"{}\"", t.variant)) || t.variant == default_variant(t.name),
@@ -60,7 +61,7 @@ fn every_built_in_term_variant_and_shadow_model_is_used_by_a_scene_or_model_file
             t.variant
         );
     }
-    for s in lancer_shading::shadows::BUILTIN {
+    for s in lancer_shading::shadows::BUILTIN.iter().filter(|s| s.mistake.is_none()) {
         assert!(text.contains(&format!("\"{}\"", s.name)), "no scene or model uses shadow model `{}`", s.name);
     }
 }

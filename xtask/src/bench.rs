@@ -531,6 +531,56 @@ pub fn run(args: &[String]) -> Result<()> {
     }
     json.insert("meshes_vs_povray".into(), mesh_pov_rows.into());
 
+    // The browser build, in headless Chromium, against the native renders above.
+    println!("\nIn the browser: target/web (cargo xtask web) in headless Chromium, anchor 1280x720, median of {runs}");
+    match crate::web_check::measure(runs) {
+        Ok(w) => {
+            let native = [one.secs, two.secs];
+            let mut rows = Vec::new();
+            println!("{:<8} {:>10} {:>11} {:>16}", "workers", "wasm (s)", "native (s)", "wasm / native");
+            for (k, &(workers, secs)) in w.anchor.iter().enumerate() {
+                let ratio = secs / native[k];
+                println!("{workers:<8} {secs:>10.3} {:>11.3} {ratio:>15.2}x", native[k]);
+                rows.push(
+                    serde_json::json!({ "workers": workers, "wasm_s": secs, "native_s": native[k], "ratio": ratio }),
+                );
+            }
+            let (coarse, full) = w.latency;
+            println!(
+                "slider to image at 640x360 on 2 workers: coarse {coarse:.0} ms, full {full:.0} ms (module {})",
+                if w.simd { "with SIMD" } else { "without SIMD" }
+            );
+            json.insert(
+                "wasm".into(),
+                serde_json::json!({ "anchor": rows, "latency_coarse_ms": coarse, "latency_full_ms": full, "simd": w.simd }),
+            );
+            if let Some(&(_, secs)) = w.anchor.first() {
+                targets.push(Target {
+                    what: "anchor in the browser, 1 worker / native 1 thread",
+                    measured: secs / one.secs,
+                    bound: 2.0,
+                    at_most: true,
+                });
+            }
+            targets.push(Target {
+                what: "browser slider to coarse image, 640x360, 2 workers (ms)",
+                measured: coarse,
+                bound: 100.0,
+                at_most: true,
+            });
+            targets.push(Target {
+                what: "browser slider to full image, 640x360, 2 workers (ms)",
+                measured: full,
+                bound: 500.0,
+                at_most: true,
+            });
+        }
+        Err(e) => {
+            println!("  not measured: {e:#}");
+            json.insert("wasm".into(), serde_json::json!({ "not_measured": format!("{e:#}") }));
+        }
+    }
+
     println!("\nTargets");
     for t in &targets {
         println!(

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use lancer_studio::session::Session;
-use serde_json::json;
+use serde_json::{Value, json};
 
 use crate::webdriver::Driver;
 use crate::{root, which};
@@ -156,6 +156,58 @@ const SET: &str = "const e = document.querySelector(arguments[0]); if (!e) retur
     if (e.type === 'checkbox') e.checked = arguments[1]; else e.value = arguments[1]; \
     window.studio.editAt = performance.now(); e.dispatchEvent(new Event('input')); return true;";
 
+/// The scene loads counted by the page's engine, and the newest full frame: `(key, generation)`.
+fn shown(d: &Driver) -> Result<(i64, i64, bool)> {
+    let v = d.js(
+        "const f = window.studio.frame(), k = window.studio.engineInfo().key; return [k, f ? f.key : -1, f ? f.generation : 0, !!(f && !f.coarse)];",
+        json!([]),
+    )?;
+    let n = |i: usize| v[i].as_i64().unwrap_or(-1);
+    Ok((n(0), n(2), n(0) == n(1) && v[3] == json!(true)))
+}
+
+/// Runs `action` (a script that opens a scene) and waits for the first full frame of the scene it
+/// loads (not a late frame of the one before).
+fn open_and_wait(d: &Driver, what: &str, action: &str, args: Value) -> Result<()> {
+    let (key, ..) = shown(d)?;
+    d.js(action, args)?;
+    d.until(
+        what,
+        &format!(
+            "const f = window.studio.frame(), k = window.studio.engineInfo().key; return k > {key} && f && f.key === k && !f.coarse || null;"
+        ),
+    )?;
+    Ok(())
+}
+
+/// Picks the shipped scene `rel` from the list, as a student would, and waits for its image.
+fn pick(d: &Driver, rel: &str) -> Result<()> {
+    open_and_wait(
+        d,
+        &format!("{rel}'s full image"),
+        "const s = document.getElementById('scenes'); s.value = arguments[0]; s.dispatchEvent(new Event('change')); return true;",
+        json!([rel]),
+    )
+}
+
+/// Counts the connections made to it: what every host but loopback resolves to during the check.
+fn trap_server() -> Result<(u16, std::sync::Arc<std::sync::Mutex<Vec<String>>>)> {
+    let listener = TcpListener::bind("127.0.0.1:0")?;
+    let port = listener.local_addr()?.port();
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let log = seen.clone();
+    std::thread::spawn(move || {
+        for stream in listener.incoming().flatten() {
+            let mut line = String::new();
+            let _ = BufReader::new(stream).read_line(&mut line);
+            if let Ok(mut l) = log.lock() {
+                l.push(line.trim().to_owned());
+            }
+        }
+    });
+    Ok((port, seen))
+}
+
 pub fn check(args: &[String]) -> Result<()> {
     let mut docs = root().join("docs");
     let mut it = args.iter();
@@ -173,46 +225,47 @@ pub fn check(args: &[String]) -> Result<()> {
         "chromedriver is not installed (Debian: apt-get install chromium chromium-driver, the same version)",
     )?;
     let port = serve_static(web)?;
-    // Every host name resolves to nothing but loopback's: the page must need no network.
-    let (d, _driver) = crate::webdriver::start_with(
-        chromedriver,
-        (1500, 1000),
-        &["--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1"],
-    )?;
+    // Every host name but loopback's goes to a server that only counts who came: the page
+    // must need no network.
+    let (trap, seen) = trap_server()?;
+    let rules = format!("--host-resolver-rules=MAP * 127.0.0.1:{trap}, EXCLUDE 127.0.0.1");
+    let (d, _driver) = crate::webdriver::start_with(chromedriver, (1500, 1000), &[&rules])?;
     let result = run(&d, port, &docs);
     let _ = d.call("DELETE", "", json!({}));
-    result
+    result?;
+    let seen = seen.lock().map(|s| s.clone()).unwrap_or_default();
+    if !seen.is_empty() {
+        bail!("the page reached beyond its own server: {seen:?}");
+    }
+    println!("the page asked nothing of any host but its own server (every other host led to a trap that saw nothing)");
+    println!("web-check: all checks passed");
+    Ok(())
 }
 
 fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
     let base = format!("http://127.0.0.1:{port}/");
     d.call("POST", "/url", json!({ "url": base }))?;
     let started = Instant::now();
-    let mut g = full_after(d, "the first full image", 0)?;
+    d.until("the first full image", "const f = window.studio && window.studio.frame(); return f && !f.coarse || null")?;
     let info = d.js("return window.studio.engineInfo()", json!([]))?;
     println!("page loaded: first full image after {:.1} s ({info})", started.elapsed().as_secs_f64());
+    if info["simd"] != json!(true) {
+        bail!("Chromium runs WebAssembly SIMD, yet the page chose the module without it: {info}");
+    }
 
     // 1. Every shipped scene, picked from the list, equals its native render.
     let scenes_dir = root().join("scenes");
-    let shipped = crate::scenes(None)?;
-    for path in &shipped {
-        let rel = path.strip_prefix(&scenes_dir)?.to_string_lossy().replace('\\', "/");
-        let text = std::fs::read_to_string(path)?;
-        let name = rel.rsplit('/').next().unwrap_or(&rel).to_owned();
+    let native_of = |rel: &str| -> Result<Native> {
+        let path = scenes_dir.join(rel);
+        let text = std::fs::read_to_string(&path)?;
         let dir = path.parent().context("a scene has a folder")?.to_path_buf();
-        let n = native(&name, &text, &|p: &str| std::fs::read(dir.join(p)).map_err(|e| e.to_string()))?;
+        native(rel, &text, &|p: &str| std::fs::read(dir.join(p)).map_err(|e| e.to_string()))
+    };
+    for path in crate::scenes(None)? {
+        let rel = path.strip_prefix(&scenes_dir)?.to_string_lossy().replace('\\', "/");
+        let n = native_of(&rel)?;
         let t = Instant::now();
-        d.js(
-            "const s = document.getElementById('scenes'); s.value = arguments[0]; s.dispatchEvent(new Event('change')); return true;",
-            json!([rel]),
-        )?;
-        g = full_after(d, &format!("{rel}'s full image"), g)?;
-        // A frame of the newly picked scene (the first may still have been the last scene's).
-        d.until(
-            &format!("{rel} shown"),
-            &format!("return document.getElementById('scene').textContent.startsWith({:?})", name),
-        )?;
-        g = g.max(generation(d)?);
+        pick(d, &rel)?;
         compare(d, &rel, &n)?;
         println!(
             "{rel}: {}x{}, every layer bit-identical to the native render ({:.2} s)",
@@ -221,28 +274,17 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
             t.elapsed().as_secs_f64()
         );
     }
-    let seen = d.js(
-        "return performance.getEntriesByType('resource').map((e) => e.name).filter((u) => !u.startsWith(arguments[0]) && !u.startsWith('blob:'))",
-        json!([base]),
-    )?;
-    if seen.as_array().is_some_and(|a| !a.is_empty()) {
-        bail!("the page fetched from beyond the page's own server: {seen}");
-    }
-    println!("the page fetched nothing beyond its own server");
 
     // 2. A slider: the diffuse image changes, the ambient one keeps its bits.
-    d.js(
-        "const s = document.getElementById('scenes'); s.value = 'showcase.toml'; s.dispatchEvent(new Event('change')); return true;",
-        json!([]),
-    )?;
-    g = full_after(d, "the showcase again", g)?;
+    pick(d, "showcase.toml")?;
     let hash = |name: &str| d.js("return window.studio.hash(arguments[0])", json!([name]));
     let before = (hash("ambient")?, hash("diffuse")?);
+    let (_, g, _) = shown(d)?;
     let ok = d.js(SET, json!(["fieldset[data-material='1'] input[data-param='diff']", "0.3"]))?;
     if ok != json!(true) {
         bail!("the floor's diff slider: {ok}");
     }
-    g = full_after(d, "the image after the diff slider", g)?;
+    full_after(d, "the image after the diff slider", g)?;
     let t = d.js(
         "const s = window.studio, a = s.arrivals.filter((x) => x.at >= s.editAt); \
          const c = a.find((x) => x.coarse), f = a.find((x) => !x.coarse); \
@@ -261,16 +303,15 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
     }
     println!("diff slider: diffuse changed, ambient bit-identical; coarse after {} ms, full after {} ms", t[0], t[1]);
 
-    // 3. A broken edit: its line marked, the message located, the image kept.
+    // 3. A broken edit: its line marked, the message located, the image kept; a slider moved
+    // meanwhile renders the last good scene.
     let beauty = hash("beauty")?;
     let text = d.js("return document.getElementById('source').value", json!([]))?;
     let text = text.as_str().context("the scene's text")?.to_owned();
     let broken_line = text.lines().position(|l| l.starts_with("width")).context("a width line")? + 1;
     let broken = text.replacen("width = ", "width = \"wide\" # ", 1);
-    d.js(
-        "const e = document.getElementById('source'); e.value = arguments[0]; e.dispatchEvent(new Event('input')); return true;",
-        json!([broken]),
-    )?;
+    let type_text = "const e = document.getElementById('source'); e.value = arguments[0]; e.dispatchEvent(new Event('input')); return true;";
+    d.js(type_text, json!([broken]))?;
     let error = d.until(
         "the broken edit's error",
         "const e = document.getElementById('source-error'); return !e.hidden ? e.textContent : null",
@@ -283,96 +324,134 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
     if hash("beauty")? != beauty {
         bail!("a broken edit replaced the image");
     }
+    let (_, g, _) = shown(d)?;
+    d.js(SET, json!(["fieldset[data-material='1'] input[data-param='diff']", "0.35"]))?;
+    full_after(d, "a slider moved while the text is broken", g)?;
+    let kept = d.js("return document.getElementById('source').value", json!([]))?;
+    if kept != json!(broken) {
+        bail!("a slider moved while the text was broken replaced the typing");
+    }
     println!(
-        "broken edit: line {broken_line} marked, `{}`, image kept",
+        "broken edit: line {broken_line} marked, `{}`, image kept; a slider still renders, the typing stays",
         error.as_str().unwrap_or("").lines().next().unwrap_or("")
     );
-    d.js(
-        "const e = document.getElementById('source'); e.value = arguments[0]; e.dispatchEvent(new Event('input')); return true;",
-        json!([text]),
-    )?;
+    d.js(type_text, json!([text]))?;
     d.until("the fixed edit", "return document.getElementById('source-error').hidden || null")?;
-    g = full_after(d, "the image after the fix", g)?;
+    let (_, g, _) = shown(d)?;
+    full_after(d, "the image after the fix", g)?;
 
-    // 4. The EXR download is the native file, byte for byte.
+    // 4. The downloads are the native files, byte for byte.
     let edited = d.js("return document.getElementById('source').value", json!([]))?;
     let edited = edited.as_str().context("the edited text")?.to_owned();
     let n = native("showcase.toml", &edited, &|_| Err("no file".into()))?;
-    d.js("document.querySelector('#thumbs figure[data-layer=\"diffuse\"]').click(); document.getElementById('exr').click(); return true;", json!([]))?;
-    let got = d.until("the EXR download", "return window.studio.lastDownload && window.studio.lastDownload.name.endsWith('.exr') ? window.studio.lastDownload : null")?;
     use base64::Engine as _;
-    let bytes = base64::engine::general_purpose::STANDARD.decode(got["bytes"].as_str().unwrap_or(""))?;
-    let diffuse = &n.layers.iter().find(|(name, _)| name == "diffuse").context("a diffuse layer")?.1;
-    let want = lancer_cli::output::encode_exr(n.width, n.height, diffuse)?;
-    if bytes != want {
-        bail!("the downloaded {} ({} bytes) is not the native EXR ({} bytes)", got["name"], bytes.len(), want.len());
+    for (button, ext) in [("exr", ".exr"), ("png", ".png")] {
+        d.js(
+            "window.studio.lastDownload = null; document.querySelector('#thumbs figure[data-layer=\"diffuse\"]').click(); document.getElementById(arguments[0]).click(); return true;",
+            json!([button]),
+        )?;
+        let got = d.until(
+            "the download",
+            &format!("const l = window.studio.lastDownload; return l && l.name.endsWith('{ext}') ? l : null"),
+        )?;
+        let bytes = base64::engine::general_purpose::STANDARD.decode(got["bytes"].as_str().unwrap_or(""))?;
+        let diffuse = &n.layers.iter().find(|(name, _)| name == "diffuse").context("a diffuse layer")?.1;
+        let want = match button {
+            "exr" => lancer_cli::output::encode_exr(n.width, n.height, diffuse)?,
+            _ => lancer_cli::output::encode_png(n.width, n.height, diffuse)?,
+        };
+        if bytes != want {
+            bail!(
+                "the downloaded {} ({} bytes) is not the native file ({} bytes)",
+                got["name"],
+                bytes.len(),
+                want.len()
+            );
+        }
+        println!("download: {} is the native file's {} bytes", got["name"].as_str().unwrap_or(""), want.len());
     }
-    println!("download: {} is the native EXR's {} bytes", got["name"].as_str().unwrap_or(""), want.len());
 
     // 5. A dropped scene with its OBJ file.
     let obj = "v -1 0 0\nv 1 0 0\nv 0 1.5 0\nv 0 0.5 -1\nf 1 2 3\nf 1 4 2\nf 2 4 3\nf 3 4 1\n";
     let scene = "[camera]\nfrom = [0, 1, -4]\nto = [0, 0.5, 0]\n[image]\nwidth = 160\nheight = 120\n\
-                 [[lights]]\nat = [3, 5, -4]\n[[objects]]\nshape = \"mesh\"\npath = \"tetra.obj\"\n\
+                 [[lights]]\nat = [3, 5, -4]\n[[objects]]\nshape = \"mesh\"\npath = \"meshes/tetra.obj\"\n\
                  material = { color = [0.9, 0.5, 0.2], ambi = 0.2, diff = 0.7 }\n";
     let n = native("mine.toml", scene, &|p: &str| {
-        if p == "tetra.obj" { Ok(obj.as_bytes().to_vec()) } else { Err(format!("no {p}")) }
+        if p == "meshes/tetra.obj" { Ok(obj.as_bytes().to_vec()) } else { Err(format!("no {p}")) }
     })?;
-    d.js(
+    open_and_wait(
+        d,
+        "the dropped scene's image",
         "const dt = new DataTransfer(); dt.items.add(new File([arguments[0]], 'mine.toml')); dt.items.add(new File([arguments[1]], 'tetra.obj')); \
          document.dispatchEvent(new DragEvent('drop', { dataTransfer: dt, bubbles: true, cancelable: true })); return true;",
         json!([scene, obj]),
     )?;
-    d.until("the dropped scene", "return document.getElementById('scene').textContent.startsWith('mine.toml')")?;
-    full_after(d, "the dropped scene's image", g)?;
     compare(d, "the dropped scene", &n)?;
-    println!("dropped mine.toml with tetra.obj: rendered, every layer bit-identical to the native render");
+    println!(
+        "dropped mine.toml with tetra.obj (named meshes/tetra.obj): every layer bit-identical to the native render"
+    );
 
-    // 6. A share link opens the same scene (the text of an edited shipped one: a link carries
-    // no file).
-    d.js(
-        "const s = document.getElementById('scenes'); s.value = 'glass.toml'; s.dispatchEvent(new Event('change')); return true;",
-        json!([]),
-    )?;
-    d.until("glass.toml shown", "return document.getElementById('scene').textContent.startsWith('glass.toml')")?;
+    // 6. A share link opens the same scene: an edited shipped one, whose files it finds too.
+    pick(d, "meshes.toml")?;
+    let (_, g, _) = shown(d)?;
     let ok = d.js(SET, json!(["fieldset[data-material='0'] input[data-param='shine']", "0.9"]))?;
     if ok != json!(true) {
-        bail!("the glass's shine slider: {ok}");
+        bail!("a shine slider: {ok}");
     }
-    full_after(d, "the edited glass", g)?;
-    d.until(
-        "the text with the edit",
-        "return document.getElementById('source').value.includes('shine = 0.9\\n') || null",
-    )?;
+    full_after(d, "the edited scene", g)?;
     let beauty = hash("beauty")?;
     d.js("document.getElementById('share').click(); return true;", json!([]))?;
     let link = d.until("the share link", "return location.hash.startsWith('#scene=') ? location.href : null")?;
     let link = link.as_str().unwrap_or("").to_owned();
     d.call("POST", "/url", json!({ "url": "about:blank" }))?;
     d.call("POST", "/url", json!({ "url": link }))?;
-    full_after(d, "the shared scene's image", 0)?;
+    d.until(
+        "the shared scene's image",
+        "const f = window.studio && window.studio.frame(); return f && !f.coarse || null",
+    )?;
     if hash("beauty")? != beauty {
         bail!("the share link ({} characters) shows another image", link.len());
     }
-    println!("share link ({} characters): the same image", link.len());
+    println!("share link of an edited meshes.toml ({} characters): the same image", link.len());
 
-    // 7. The module without SIMD (for a browser without it) gives the same bits too.
+    // 7. More workers than cores, and a scene picked while another renders: the same bits.
+    d.call("POST", "/url", json!({ "url": format!("{base}?workers=5&scene=glass.toml") }))?;
+    d.until(
+        "glass.toml on 5 workers",
+        "const f = window.studio && window.studio.frame(); return f && !f.coarse || null",
+    )?;
+    compare(d, "glass.toml on 5 workers", &native_of("glass.toml")?)?;
+    d.js(
+        "const s = document.getElementById('scenes'); s.value = 'bench/anchor.toml'; s.dispatchEvent(new Event('change')); return true;",
+        json!([]),
+    )?;
+    std::thread::sleep(Duration::from_millis(150));
+    pick(d, "mirrors.toml")?;
+    compare(d, "mirrors.toml picked while the anchor rendered", &native_of("mirrors.toml")?)?;
+    println!("5 workers, and a scene picked during another's render: every layer bit-identical");
+
+    // 8. The module without SIMD (for a browser without it) gives the same bits too.
     d.call("POST", "/url", json!({ "url": format!("{base}?simd=0&scene=glass.toml") }))?;
-    full_after(d, "glass.toml without SIMD", 0)?;
+    d.until(
+        "glass.toml without SIMD",
+        "const f = window.studio && window.studio.frame(); return f && !f.coarse || null",
+    )?;
     let info = d.js("return window.studio.engineInfo()", json!([]))?;
     if info["simd"] != json!(false) {
         bail!("?simd=0 still runs the SIMD module: {info}");
     }
-    let glass = scenes_dir.join("glass.toml");
-    let n = native("glass.toml", &std::fs::read_to_string(&glass)?, &|_| Err("no file".into()))?;
-    compare(d, "glass.toml without SIMD", &n)?;
+    compare(d, "glass.toml without SIMD", &native_of("glass.toml")?)?;
     println!("glass.toml with the module built without SIMD: every layer bit-identical to the native render");
 
-    // 8. Screenshots for the README.
+    // 9. Screenshots for the README, with no sideways scroll.
     std::fs::create_dir_all(docs)?;
     for (w, h) in [(1024u32, 768u32), (1920, 1080)] {
         d.call("POST", "/window/rect", json!({ "width": w, "height": h }))?;
         d.call("POST", "/url", json!({ "url": base }))?;
-        full_after(d, "the image for the screenshot", 0)?;
+        d.until(
+            "the image for the screenshot",
+            "const f = window.studio && window.studio.frame(); return f && !f.coarse || null",
+        )?;
         std::thread::sleep(Duration::from_millis(300));
         let scroll =
             d.js("return document.documentElement.scrollWidth > document.documentElement.clientWidth", json!([]))?;
@@ -385,6 +464,78 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
         std::fs::write(&file, bytes)?;
         println!("screenshot {}", file.display());
     }
-    println!("web-check: all checks passed");
     Ok(())
+}
+
+/// What `cargo xtask bench` measures of the browser build: the anchor's full render at 1 and
+/// `threads` workers (median of `runs`, ms), and the latency of a slider move at 640x360 on 2
+/// workers (median ms to the coarse and to the full image, of `runs` moves).
+pub struct WebTimes {
+    /// Anchor render times, one per worker count (1, then 2), in seconds.
+    pub anchor: Vec<(u32, f64)>,
+    /// Median slider-to-coarse and slider-to-full times, ms.
+    pub latency: (f64, f64),
+    /// Whether the SIMD module ran.
+    pub simd: bool,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() { f64::NAN } else { v[v.len() / 2] }
+}
+
+/// Measures the browser build (see [`WebTimes`]); an error says what is missing.
+pub fn measure(runs: usize) -> Result<WebTimes> {
+    let web = root().join("target/web");
+    if !web.join("index.html").is_file() {
+        bail!("no browser build in target/web (run `cargo xtask web`)");
+    }
+    let chromedriver = which("chromedriver")
+        .context("chromedriver is not installed (Debian: apt-get install chromium chromium-driver)")?;
+    let port = serve_static(web)?;
+    let (d, _driver) = crate::webdriver::start(chromedriver, (1500, 1000))?;
+    let result = (|| {
+        let mut anchor = Vec::new();
+        let mut simd = false;
+        for workers in [1u32, 2] {
+            let url = format!("http://127.0.0.1:{port}/?workers={workers}&scene=bench/anchor.toml");
+            d.call("POST", "/url", json!({ "url": url }))?;
+            d.until_within(
+                "the anchor",
+                "const f = window.studio && window.studio.frame(); return f && !f.coarse && f.width === 1280 || null",
+                Duration::from_secs(120),
+            )?;
+            simd = d.js("return window.studio.engineInfo().simd", json!([]))? == json!(true);
+            d.js("return window.studio.bench(arguments[0])", json!([runs.max(1)]))?;
+            let times =
+                d.until_within("the anchor's renders", "return window.studio.benchTimes", Duration::from_secs(600))?;
+            let times: Vec<f64> = times.as_array().into_iter().flatten().filter_map(Value::as_f64).collect();
+            anchor.push((workers, median(times) / 1000.0));
+        }
+        d.call("POST", "/url", json!({ "url": format!("http://127.0.0.1:{port}/?workers=2&scene=showcase.toml") }))?;
+        d.until("the showcase", "const f = window.studio && window.studio.frame(); return f && !f.coarse || null")?;
+        let (mut coarse, mut full) = (Vec::new(), Vec::new());
+        for k in 0..runs.max(3) {
+            let before = generation(&d)?;
+            d.js(
+                SET,
+                json!([
+                    "fieldset[data-material='1'] input[data-param='diff']",
+                    format!("{:.3}", 0.3 + 0.05 * k as f64)
+                ]),
+            )?;
+            full_after(&d, "the image after a slider move", before)?;
+            let t = d.js(
+                "const s = window.studio, a = s.arrivals.filter((x) => x.at >= s.editAt); \
+                 const c = a.find((x) => x.coarse), f = a.find((x) => !x.coarse); \
+                 return [c ? c.at - s.editAt : -1, f ? f.at - s.editAt : -1];",
+                json!([]),
+            )?;
+            coarse.push(t[0].as_f64().unwrap_or(f64::NAN));
+            full.push(t[1].as_f64().unwrap_or(f64::NAN));
+        }
+        Ok(WebTimes { anchor, latency: (median(coarse), median(full)), simd })
+    })();
+    let _ = d.call("DELETE", "", json!({}));
+    result
 }

@@ -49,15 +49,20 @@ impl Driver {
 
     /// Waits (up to 20 s) until `script` returns something truthy, and returns it.
     pub fn until(&self, what: &str, script: &str) -> Result<Value> {
+        self.until_within(what, script, Duration::from_secs(20))
+    }
+
+    /// [`Driver::until`] with a time limit of its own.
+    pub fn until_within(&self, what: &str, script: &str, limit: Duration) -> Result<Value> {
         let start = Instant::now();
         loop {
             let v = self.js(script, json!([]))?;
             if !(v.is_null() || v == json!(false)) {
                 return Ok(v);
             }
-            if start.elapsed() > Duration::from_secs(20) {
+            if start.elapsed() > limit {
                 let error = self.js("return document.getElementById('error').textContent", json!([]))?;
-                bail!("waited 20 s for {what} (page error: {error})");
+                bail!("waited {} s for {what} (page error: {error})", limit.as_secs());
             }
             std::thread::sleep(Duration::from_millis(50));
         }

@@ -55,12 +55,17 @@ enum Command {
     Serve(ServeArgs),
     /// Write the scene for another renderer: `lancer export pov SCENE -o OUT.pov` (POV-Ray 3.7).
     Export(ExportArgs),
-    /// List every registered term, its variants and parameters, and every shadow model.
-    Terms,
+    /// List every registered term, its variants and parameters, and every shadow model
+    /// (`--mistakes`: the catalogue of classic mistakes instead).
+    Terms(crate::listing::TermsArgs),
     /// Compare two images, or two `--aov` folders term by term: PSNR, absolute errors, ꟻLIP, the
     /// worst region, and the usual mismatches named (upside down, sRGB curve, a factor, channel
     /// order, a shifted pixel grid); exit 0 pass, 1 differ, 2 bad input.
     Diff(crate::diff::DiffArgs),
+    /// Tell which classic mistake of the course, if any, explains a student's image of a scene:
+    /// the first line is `verdict: correct`, `verdict: NAME` (e.g. specular:sign) or
+    /// `verdict: unclear`; exit 0 correct, 1 a mistake or unclear, 2 bad input.
+    Diagnose(crate::diagnose::DiagnoseArgs),
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -160,6 +165,10 @@ pub(crate) struct RenderArgs {
     /// same image but where two surfaces tie exactly.
     #[arg(long)]
     reference: bool,
+    /// Write the images through a classic mistake of an image writer, to show it (see
+    /// `lancer terms --mistakes`): linear values as if sRGB, rows upside down, or BGR.
+    #[arg(long, value_enum, value_name = "MISTAKE")]
+    output_mistake: Option<crate::diagnose::OutputMistake>,
 }
 
 #[derive(Args)]
@@ -173,11 +182,20 @@ struct ServeArgs {
     #[arg(long)]
     no_open: bool,
     /// The address to listen on; anything but 127.0.0.1 exposes the studio to the network.
+    /// 0.0.0.0 (or ::) listens on every interface and prints each address, loopback first.
     #[arg(long, default_value = "127.0.0.1")]
     host: std::net::IpAddr,
+    /// Another name the page may be opened by, such as this machine's name on the network
+    /// (lab-pc.local): a DNS name or an IP address, without port or path. Repeatable.
+    #[arg(long = "allow-host", value_name = "NAME", value_parser = lancer_studio::allowed_host)]
+    allow_host: Vec<String>,
     /// Let the page's Save write the edits back into the scene file (keeping its comments).
     #[arg(long)]
     allow_save: bool,
+    /// For a class: each page's edits render for that page alone (never on the others'
+    /// screens) and Save is off; the scene file's own state and its reloads reach every page.
+    #[arg(long, conflicts_with = "allow_save")]
+    read_only: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -303,8 +321,12 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
         Some(Command::Export(args)) => export(registry, args),
         Some(Command::Serve(args)) => serve(registry, args),
         Some(Command::Diff(args)) => crate::diff::run(args),
-        Some(Command::Terms) => {
-            print!("{}", crate::listing::terms(registry));
+        Some(Command::Diagnose(args)) => crate::diagnose::run(registry, args),
+        Some(Command::Terms(args)) => {
+            print!(
+                "{}",
+                if args.mistakes { crate::listing::mistakes(registry) } else { crate::listing::terms(registry) }
+            );
             Ok(())
         }
     }
@@ -376,9 +398,9 @@ fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
 }
 
 /// A scene loaded with its model, the command line's changes applied.
-struct Loaded {
-    scene: lancer_core::Scene,
-    pipeline: Pipeline,
+pub(crate) struct Loaded {
+    pub(crate) scene: lancer_core::Scene,
+    pub(crate) pipeline: Pipeline,
     /// What loading found to warn about.
     warnings: Vec<lancer_scene::Warning>,
     /// Where the scene's parts are in its file.
@@ -387,7 +409,7 @@ struct Loaded {
     /// the effective model and image settings, Lancer's version): parts of one render share them.
     identity: crate::part::Sources,
     /// How the scene is named in messages.
-    name: String,
+    pub(crate) name: String,
     /// The scene file's text as it was read (what the studio's Save edits).
     source: String,
     load_time: std::time::Duration,
@@ -395,7 +417,7 @@ struct Loaded {
 
 /// Reads and builds the scene and its model, applies the command line's changes, and checks the
 /// image's size.
-fn load(registry: &Registry, args: &SceneArgs) -> Result<Loaded> {
+pub(crate) fn load(registry: &Registry, args: &SceneArgs) -> Result<Loaded> {
     load_recording(registry, args, &std::cell::RefCell::new(Vec::new()))
 }
 
@@ -584,6 +606,9 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
     {
         bail!("cannot write {}: there is no folder {}", args.output.display(), folder.display());
     }
+    if args.tile.is_some() && args.output_mistake.is_some() {
+        bail!("--output-mistake shows a mistake in whole images; a part of a render (--tile) is written as it is");
+    }
     if args.tile.is_some() && args.aov.is_some() {
         bail!("with --tile, the per-term images come from the merge: lancer merge PARTS... --aov DIR");
     }
@@ -637,7 +662,7 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
     };
     let timing = args.stats || args.stats_json.is_some();
     let start = Instant::now();
-    let frame = pool.install(|| {
+    let mut frame = pool.install(|| {
         lancer_shading::render_prepared(
             &prepared,
             &scene.camera,
@@ -657,6 +682,9 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
     });
     let elapsed = start.elapsed();
     bar.finish_and_clear();
+    if let Some(mistake) = args.output_mistake {
+        mistake.apply_to_frame(&mut frame);
+    }
 
     let run = crate::stats::Run {
         scene: &name,
@@ -728,8 +756,16 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
 fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
     if !args.host.is_loopback() {
         eprintln!(
-            "warning: listening on {}: anyone who can reach this machine and learns the token can use the studio",
-            args.host
+            "warning: listening on {}: anyone who can reach this machine and learns the token can use the studio{}",
+            match args.host {
+                std::net::IpAddr::V6(a) => format!("[{a}]"),
+                a => a.to_string(),
+            },
+            if args.read_only {
+                " (read-only: each page's edits stay its own, and no one can Save)"
+            } else {
+                "; for a class, add --read-only (each student's edits stay in their own tab, and Save is off)"
+            }
         );
     }
     let input = SceneArgs { confined: true, ..args.input.clone() };
@@ -739,11 +775,13 @@ fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
         let loaded = load_recording(&reg, &input, &inputs).map_err(|e| format!("{e:#}"))?;
         // Prepared once, here: the studio renders from it (a large mesh's BVH is built once).
         let (prepared, warnings) = loaded.prepare().map_err(|e| format!("{e:#}"))?;
+        let objects = lancer_studio::session::object_labels(&prepared, &loaded.places);
         Ok(lancer_studio::Loaded {
             prepared,
             source: loaded.source,
             path: input.scene.clone(),
             labels: loaded.places.materials.clone(),
+            objects,
             warnings: warnings.iter().map(|w| w.to_string()).collect(),
             inputs: inputs.into_inner().into_iter().map(|(p, _)| p).collect(),
             name: loaded.name,
@@ -751,8 +789,14 @@ fn serve(registry: &Registry, args: ServeArgs) -> Result<()> {
             pipeline: loaded.pipeline,
         })
     });
-    let options =
-        lancer_studio::Options { host: args.host, port: args.port, open: !args.no_open, allow_save: args.allow_save };
+    let options = lancer_studio::Options {
+        host: args.host,
+        port: args.port,
+        open: !args.no_open,
+        allow_save: args.allow_save,
+        allow_hosts: args.allow_host,
+        read_only: args.read_only,
+    };
     lancer_studio::serve(registry.clone(), loader, options)
 }
 

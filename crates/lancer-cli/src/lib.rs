@@ -4,6 +4,7 @@
 //! text ([`listing`]).
 
 mod app;
+mod diagnose;
 mod diff;
 pub mod listing;
 pub mod output;

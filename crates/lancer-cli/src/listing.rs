@@ -1,5 +1,5 @@
 //! The text of `lancer terms`: every registered term with its variants, parameters and defaults,
-//! and every shadow model.
+//! and every shadow model; with `--mistakes`, the catalogue of classic mistakes instead.
 
 use std::fmt::Write;
 
@@ -34,10 +34,78 @@ pub fn terms(registry: &Registry) -> String {
     out
 }
 
+/// `lancer terms`'s flags.
+#[derive(clap::Args)]
+pub(crate) struct TermsArgs {
+    /// List the catalogue of classic mistakes instead: each renders like a variant, to show it,
+    /// and `lancer diagnose` tells which one explains a student's image.
+    #[arg(long)]
+    pub(crate) mistakes: bool,
+}
+
+/// The text of `lancer terms --mistakes`: every classic mistake of the registry (mistaken term
+/// variants and shadow models) and of the image writer, a line each, and how to render it.
+pub fn mistakes(registry: &Registry) -> String {
+    let mut out = String::from(
+        "Classic mistakes of the course, each rendered like any variant to show what it looks like:
+",
+    );
+    out.push_str(
+        "terms with --terms or [model] (e.g. --terms ambient,diffuse,specular:sign), shadows with
+",
+    );
+    out.push_str(
+        "--shadows (e.g. --shadows no-offset), output with `lancer render --output-mistake NAME`.
+",
+    );
+    out.push_str(
+        "`lancer diagnose SCENE --image IMAGE` tells which of them explains a student's image.
+
+",
+    );
+    let entries = crate::diagnose::catalogue::entries(registry);
+    let width = entries.iter().map(|e| e.name.len()).max().unwrap_or(0);
+    for e in &entries {
+        let _ = writeln!(out, "  {:<width$}  {}", e.name, e.summary);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
     fn listing_of_the_built_ins() {
         insta::assert_snapshot!(super::terms(&lancer_shading::Registry::with_builtins()));
+    }
+
+    #[test]
+    fn the_mistakes_are_listed_apart_one_line_each() {
+        let registry = lancer_shading::Registry::with_builtins();
+        let normal = super::terms(&registry);
+        let mistakes = super::mistakes(&registry);
+        for name in
+            ["exponent-shine", "no-clamp", "sign-trap", "inverted-index", "no-exit-bend", "no-offset", "past-light"]
+        {
+            assert!(!normal.contains(name), "`lancer terms` lists the mistake {name}");
+        }
+        let lines: Vec<&str> = mistakes.lines().filter(|l| l.starts_with("  ")).collect();
+        assert_eq!(lines.len(), 12, "{mistakes}");
+        for (line, name) in lines.iter().zip([
+            "specular:exponent-shine",
+            "specular:sign",
+            "diffuse:no-clamp",
+            "mirror:sign",
+            "refraction:sign-trap",
+            "refraction:inverted-index",
+            "refraction:no-exit-bend",
+            "shadows:no-offset",
+            "shadows:past-light",
+            "output:gamma",
+            "output:flipped",
+            "output:bgr",
+        ]) {
+            assert!(line.trim_start().starts_with(&format!("{name} ")), "{line}");
+            assert!(line.len() > name.len() + 30, "a description for {name}: {line}");
+        }
     }
 }

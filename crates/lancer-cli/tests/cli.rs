@@ -978,6 +978,44 @@ fn the_studio_answers_only_localhost_with_its_token_and_origin() {
     assert!(lancer(dir.path(), &["check", "sub/s.toml"]).status.success(), "render and check may read it");
 }
 
+#[test]
+fn serve_refuses_a_bad_allow_host_and_answers_to_a_good_one() {
+    use std::io::BufRead;
+    let serve = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_lancer"))
+            .args(["serve", "--no-open", "--port", "0"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    for (bad, says) in [
+        ("lab pc", "space"),
+        ("lab-pc.local:8470", "port"),
+        ("http://lab-pc.local", "path"),
+        ("lab_pc.local", "`_`"),
+        ("", "empty"),
+    ] {
+        let o = serve(&["--allow-host", bad]);
+        let e = stderr(&o);
+        assert!(!o.status.success() && e.contains("--allow-host") && e.contains(says), "{bad:?}: {e}");
+        assert!(o.stdout.is_empty(), "{bad:?}: nothing is served");
+    }
+    let o = serve(&["--read-only", "--allow-save"]);
+    assert!(!o.status.success() && stderr(&o).contains("--allow-save"), "{}", stderr(&o));
+    // A good name is printed after the address, and answered to.
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = studio(dir.path(), &["--allow-host", "Lab-PC.local", "--read-only"]);
+    let (p, t) = (s.port, s.token.clone());
+    let mut line = String::new();
+    s._out.read_line(&mut line).unwrap();
+    assert_eq!(line.trim_end(), format!("  also: http://lab-pc.local:{p}/?token={t}"));
+    let get = |host: &str| {
+        http(p, &format!("GET / HTTP/1.1\r\nHost: {host}\r\nCookie: lancer_token_{p}={t}\r\nConnection: close\r\n\r\n"))
+    };
+    assert!(get(&format!("lab-pc.local:{p}")).starts_with("HTTP/1.1 200"));
+    assert!(get(&format!("other-pc.local:{p}")).starts_with("HTTP/1.1 403"));
+}
+
 /// A client's WebSocket session on `s`: upgraded, with the first (hello) message read.
 struct Socket(std::net::TcpStream);
 

@@ -32,7 +32,9 @@ type Result<T> = std::result::Result<T, EncodeError>;
 #[inline]
 pub fn srgb_encode(linear: f32) -> f32 {
     let c = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
-    if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+    // `libm`'s power, the same on every platform: the 8-bit thresholds are found from it, and a
+    // PNG downloaded from the browser build has the bytes `lancer render` writes.
+    if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * libm::powf(c, 1.0 / 2.4) - 0.055 }
 }
 
 /// One linear channel as an 8-bit sRGB value: the encoded value rounded to the nearest step.

@@ -25,8 +25,8 @@ pub use params::{ParamError, ParamSpec, ParamValue, Params};
 pub use pattern::surface_color;
 pub use prepare::{PrepareError, Prepared, prepare};
 pub use registry::{
-    ModelError, NAME_MAX, NamedShadow, NamedTerm, Pipeline, RESERVED, Registry, RegistryError, ShadowSpec, TermSpec,
-    WEIGHT, is_name, is_term_name, nearest,
+    Mistake, ModelError, NAME_MAX, NamedShadow, NamedTerm, Pipeline, RESERVED, Registry, RegistryError, ShadowSpec,
+    TermSpec, WEIGHT, is_name, is_term_name, nearest,
 };
 pub use render::{RenderOptions, TILE, WAVE, part_bands, render, render_prepared};
 pub use shadow::{HitBlock, ShadowContext, ShadowModel, aim};

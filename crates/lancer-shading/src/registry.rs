@@ -16,6 +16,22 @@ pub struct TermSpec {
     pub params: &'static [ParamSpec],
     /// Builds the term from its parameters (reading each it knows).
     pub build: fn(&mut Params) -> Result<Box<dyn Term>, ParamError>,
+    /// `Some` for a classic mistake of the course ([`Mistake`]) rather than a model: it renders
+    /// like any variant but is left out of [`Registry::terms`] (the `lancer terms` listing, the
+    /// studio's menus) and listed by [`Registry::mistakes`] instead.
+    pub mistake: Option<Mistake>,
+}
+
+/// A classic mistake of the course, registered as a term variant or a shadow model so that a
+/// teacher can render it (`--terms specular:sign`, `--shadows no-offset`) and `lancer diagnose`
+/// can recognise it in a student's image. Its spec's `summary` says what it is, in one line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Mistake {
+    /// The variant (or shadow model) it is a mistake of: `phong` for `specular:sign`, `hard` for
+    /// `shadows:no-offset`. `lancer diagnose` tries it only where the model uses that one.
+    pub of: &'static str,
+    /// What to check in the code, in the course's words: `lancer diagnose`'s hint.
+    pub hint: &'static str,
 }
 
 /// How to build one shadow model.
@@ -29,6 +45,9 @@ pub struct ShadowSpec {
     pub params: &'static [ParamSpec],
     /// Builds the model from its parameters.
     pub build: fn(&mut Params) -> Result<Box<dyn ShadowModel>, ParamError>,
+    /// `Some` for a classic mistake of the course ([`Mistake`]): left out of
+    /// [`Registry::shadows`], listed by [`Registry::shadow_mistakes`].
+    pub mistake: Option<Mistake>,
 }
 
 /// A registration that clashes with one already there.
@@ -212,6 +231,10 @@ impl Pipeline {
 pub struct Registry {
     terms: Vec<TermSpec>,
     shadows: Vec<ShadowSpec>,
+    /// The term variants that are classic mistakes (found by name like the others).
+    mistakes: Vec<TermSpec>,
+    /// The shadow models that are classic mistakes.
+    shadow_mistakes: Vec<ShadowSpec>,
 }
 
 impl Default for Registry {
@@ -255,10 +278,13 @@ fn unused_param(owner: &str, params: &Params, specs: &[ParamSpec], others: &[Ter
 impl Registry {
     /// The built-in terms and shadow models.
     pub fn with_builtins() -> Registry {
-        Registry { terms: crate::terms::BUILTIN.to_vec(), shadows: crate::shadows::BUILTIN.to_vec() }
+        let (mistakes, terms) = crate::terms::BUILTIN.iter().partition(|t| t.mistake.is_some());
+        let (shadow_mistakes, shadows) = crate::shadows::BUILTIN.iter().partition(|s| s.mistake.is_some());
+        Registry { terms, shadows, mistakes, shadow_mistakes }
     }
 
-    /// Adds a term variant. Errors if that name and variant are already there.
+    /// Adds a term variant (a classic mistake when its `mistake` is set). Errors if that name
+    /// and variant are already there.
     pub fn register_term(&mut self, spec: TermSpec) -> Result<(), RegistryError> {
         for name in [spec.name, spec.variant] {
             if !is_name(name) {
@@ -268,36 +294,54 @@ impl Registry {
         if RESERVED.contains(&spec.name) {
             return Err(RegistryError::BadName(spec.name.into()));
         }
-        if self.terms.iter().any(|t| t.name == spec.name && t.variant == spec.variant) {
+        if self.terms.iter().chain(&self.mistakes).any(|t| t.name == spec.name && t.variant == spec.variant) {
             return Err(RegistryError::DuplicateTerm { name: spec.name.into(), variant: spec.variant.into() });
         }
-        self.terms.push(spec);
+        match spec.mistake {
+            Some(_) => self.mistakes.push(spec),
+            None => self.terms.push(spec),
+        }
         Ok(())
     }
 
-    /// Adds a shadow model. Errors if the name is already there.
+    /// Adds a shadow model (a classic mistake when its `mistake` is set). Errors if the name is
+    /// already there.
     pub fn register_shadow(&mut self, spec: ShadowSpec) -> Result<(), RegistryError> {
         if !is_name(spec.name) {
             return Err(RegistryError::BadName(spec.name.into()));
         }
-        if self.shadows.iter().any(|s| s.name == spec.name) {
+        if self.shadows.iter().chain(&self.shadow_mistakes).any(|s| s.name == spec.name) {
             return Err(RegistryError::DuplicateShadow(spec.name.into()));
         }
-        self.shadows.push(spec);
+        match spec.mistake {
+            Some(_) => self.shadow_mistakes.push(spec),
+            None => self.shadows.push(spec),
+        }
         Ok(())
     }
 
-    /// Every registered term variant, built-ins first, in registration order.
+    /// Every registered term variant, built-ins first, in registration order; classic mistakes
+    /// are left out ([`Registry::mistakes`]).
     pub fn terms(&self) -> &[TermSpec] {
         &self.terms
     }
 
-    /// Every registered shadow model.
+    /// Every registered shadow model but the classic mistakes ([`Registry::shadow_mistakes`]).
     pub fn shadows(&self) -> &[ShadowSpec] {
         &self.shadows
     }
 
-    /// The distinct term names, in registration order.
+    /// The term variants that are classic mistakes of the course, in registration order.
+    pub fn mistakes(&self) -> &[TermSpec] {
+        &self.mistakes
+    }
+
+    /// The shadow models that are classic mistakes of the course, in registration order.
+    pub fn shadow_mistakes(&self) -> &[ShadowSpec] {
+        &self.shadow_mistakes
+    }
+
+    /// The distinct term names, in registration order (of the variants that are not mistakes).
     pub fn term_names(&self) -> Vec<&'static str> {
         let mut names: Vec<&'static str> = Vec::new();
         for t in &self.terms {
@@ -308,9 +352,12 @@ impl Registry {
         names
     }
 
-    /// Builds term `name` (its default variant unless `variant` is given) from `params`.
+    /// Builds term `name` (its default variant unless `variant` is given) from `params`. A
+    /// classic mistake ([`Registry::mistakes`]) is named like any variant; the errors list only
+    /// the variants that are not mistakes.
     pub fn build_term(&self, name: &str, variant: Option<&str>, mut params: Params) -> Result<NamedTerm, ModelError> {
         let variants: Vec<&TermSpec> = self.terms.iter().filter(|t| t.name == name).collect();
+        let mistakes = self.mistakes.iter().filter(|t| t.name == name);
         let Some(&first) = variants.first() else {
             let known = self.term_names();
             return Err(ModelError::UnknownTerm {
@@ -321,11 +368,14 @@ impl Registry {
         };
         let spec = match variant {
             None => first,
-            Some(v) => *variants.iter().find(|t| t.variant == v).ok_or_else(|| ModelError::UnknownVariant {
-                term: name.to_owned(),
-                variant: v.to_owned(),
-                nearest: nearest(v, variants.iter().map(|t| t.variant)),
-                known: variants.iter().map(|t| t.variant.to_owned()).collect(),
+            Some(v) => variants.iter().copied().chain(mistakes.clone()).find(|t| t.variant == v).ok_or_else(|| {
+                ModelError::UnknownVariant {
+                    term: name.to_owned(),
+                    variant: v.to_owned(),
+                    nearest: nearest(v, variants.iter().map(|t| t.variant))
+                        .or_else(|| nearest(v, mistakes.clone().map(|t| t.variant))),
+                    known: variants.iter().map(|t| t.variant.to_owned()).collect(),
+                }
             })?,
         };
         let given = params.given().map(|(k, v)| (k.to_owned(), v.clone())).collect();
@@ -338,12 +388,13 @@ impl Registry {
         Ok(NamedTerm { name: name.to_owned(), variant: spec.variant.to_owned(), weight, params: given, term })
     }
 
-    /// Builds shadow model `name` from `params`.
+    /// Builds shadow model `name` (a classic mistake too) from `params`.
     pub fn build_shadow(&self, name: &str, mut params: Params) -> Result<NamedShadow, ModelError> {
-        let Some(spec) = self.shadows.iter().find(|s| s.name == name) else {
+        let Some(spec) = self.shadows.iter().chain(&self.shadow_mistakes).find(|s| s.name == name) else {
             return Err(ModelError::UnknownShadow {
                 name: name.to_owned(),
-                nearest: nearest(name, self.shadows.iter().map(|s| s.name)),
+                nearest: nearest(name, self.shadows.iter().map(|s| s.name))
+                    .or_else(|| nearest(name, self.shadow_mistakes.iter().map(|s| s.name))),
                 known: self.shadows.iter().map(|s| s.name.to_owned()).collect(),
             });
         };
@@ -442,6 +493,62 @@ mod tests {
         assert_eq!(r.build_term("diffuse", None, p).unwrap().weight, 0.5);
         let p = Params::new([("weight".to_owned(), ParamValue::Number(-1.0))]);
         assert!(r.build_term("diffuse", None, p).is_err());
+    }
+
+    #[test]
+    fn mistakes_are_listed_apart_and_built_like_any_variant() {
+        let r = Registry::with_builtins();
+        assert!(r.terms().iter().all(|t| t.mistake.is_none()) && r.shadows().iter().all(|s| s.mistake.is_none()));
+        let names: Vec<String> = r.mistakes().iter().map(|t| format!("{}:{}", t.name, t.variant)).collect();
+        assert_eq!(
+            names,
+            [
+                "specular:exponent-shine",
+                "specular:sign",
+                "diffuse:no-clamp",
+                "mirror:sign",
+                "refraction:sign-trap",
+                "refraction:inverted-index",
+                "refraction:no-exit-bend"
+            ]
+        );
+        let shadows: Vec<&str> = r.shadow_mistakes().iter().map(|s| s.name).collect();
+        assert_eq!(shadows, ["no-offset", "past-light"]);
+        // Each is a mistake of a real variant of its name (or of a real shadow model).
+        for t in r.mistakes() {
+            let of = t.mistake.unwrap().of;
+            assert!(r.terms().iter().any(|v| v.name == t.name && v.variant == of), "{}:{} of {of}", t.name, t.variant);
+        }
+        for s in r.shadow_mistakes() {
+            assert!(r.shadows().iter().any(|v| v.name == s.mistake.unwrap().of), "{}", s.name);
+        }
+        let p = Params::new([("weight".to_owned(), ParamValue::Number(0.5))]);
+        let t = r.build_term("specular", Some("sign"), p).unwrap();
+        assert_eq!((t.variant.as_str(), t.weight), ("sign", 0.5));
+        assert_eq!(r.build_shadow("no-offset", Params::default()).unwrap().name, "no-offset");
+        // The defaults are the handout's, and errors list the real variants (a near miss of a
+        // mistake's name is still suggested).
+        assert_eq!(r.build_term("specular", None, Params::default()).unwrap().variant, "phong");
+        let e = r.build_term("specular", Some("sing"), Params::default()).err().unwrap().to_string();
+        assert_eq!(
+            e,
+            "term `specular` has no variant `sing` (did you mean `sign`?); its variants: phong, blinn, blinn-normalized"
+        );
+        let e = r.build_shadow("past-lihgt", Params::default()).err().unwrap().to_string();
+        assert!(e.contains("did you mean `past-light`") && e.ends_with("none, hard, transmissive, soft"), "{e}");
+        // A plugin's mistake goes with the mistakes, and clashes with a variant of its name.
+        let mut reg = Registry::with_builtins();
+        let rim = TermSpec {
+            name: "ambient",
+            variant: "doubled",
+            mistake: Some(Mistake { of: "seed", hint: "h" }),
+            ..r.terms()[0]
+        };
+        reg.register_term(rim).unwrap();
+        assert_eq!(reg.terms().len(), r.terms().len());
+        assert_eq!(reg.mistakes().len(), r.mistakes().len() + 1);
+        assert!(reg.register_term(TermSpec { mistake: None, ..rim }).is_err());
+        assert!(reg.register_term(crate::terms::mirror::sign::SPEC).is_err());
     }
 
     #[test]

@@ -169,7 +169,10 @@ impl Node4 {
 
     /// [`Node4::enter`] for a ray that moves along every axis, with its near plane of each axis
     /// chosen beforehand (`near[axis]`: 1 where the ray goes down the axis, else 0): no branch.
-    /// The same operations in the same order, so the same lanes even where one is NaN.
+    /// The same operations in the same order, so the same lanes as [`Node4::enter`], even where
+    /// one is NaN, within one SIMD backend (`fast_max` keeps one operand or the other on NaN as
+    /// the instruction set has it: a NaN lane could differ between x86 and WebAssembly; none
+    /// reaches here, as flat axes take the branch above and empty slots are infinite).
     #[inline(always)]
     fn enter_steep(
         &self,

@@ -3,11 +3,14 @@
 //! edit renders a coarse image at once, then the full one, and a newer edit cancels the render
 //! in progress. A pixel click explains the pixel. The scene file is watched.
 //!
-//! The server binds 127.0.0.1 by default, answers only to a localhost Host, wants a per-run token
-//! (from the launch URL, then a `SameSite=Strict` cookie), checks the Origin of the WebSocket
-//! upgrade, limits request bodies and messages, and reads no path a client names. A connection
-//! that sends no request head within 30 s is closed, and so is a WebSocket that hears nothing
-//! (not even the answer to a ping) for 10 minutes.
+//! The server binds 127.0.0.1 by default, answers only to the Host of an address it printed
+//! (localhost; bound to 0.0.0.0 or ::, each interface's address) or of a name it was given
+//! (`--allow-host`), wants a per-run token (from the launch URL, then a `SameSite=Strict`
+//! cookie), checks the Origin of the WebSocket upgrade, limits request bodies and messages, and
+//! reads no path a client names. A connection that sends no request head within 30 s is closed,
+//! and so is a WebSocket that hears nothing (not even the answer to a ping) for 10 minutes.
+//! Read-only (`--read-only`, for a class), each page's edits render for that page alone, pages
+//! taking turns, and Save is off.
 
 //!
 //! The page is shared by two engines: `lancer serve` (the `server` feature, on by default: this
@@ -27,6 +30,8 @@ mod server;
 #[cfg(feature = "server")]
 mod worker;
 
+#[cfg(feature = "server")]
+pub use security::allowed_host;
 #[cfg(feature = "server")]
 pub use server::{Loaded, Loader, Options, serve};
 pub use state::{State, registry_json};

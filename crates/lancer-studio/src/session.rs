@@ -39,6 +39,12 @@ impl From<lancer_scene::LoadError> for SceneError {
     }
 }
 
+/// A state applied to a session's scene: ready to render.
+pub struct Applied {
+    prepared: Prepared,
+    pipeline: lancer_shading::Pipeline,
+}
+
 /// A loaded and prepared scene, and what the page needs of it.
 pub struct Session {
     registry: Registry,
@@ -53,6 +59,8 @@ pub struct Session {
     pub loaded: State,
     /// What loading and checking warn about, one line each.
     pub warnings: Vec<String>,
+    /// How each prepared object is named: `object 3 (sphere, glass.toml:45)`.
+    pub objects: Vec<String>,
 }
 
 impl Session {
@@ -75,6 +83,7 @@ impl Session {
                 .iter()
                 .map(|w| w.to_string()),
         );
+        let objects = object_labels(&prepared, &loaded.places);
         let samples = loaded.scene.image.samples.clamp(1, 256);
         let state = State::of(&prepared, &loaded.pipeline, &loaded.places.materials, samples);
         Ok(Session {
@@ -86,6 +95,7 @@ impl Session {
             image: loaded.scene.image,
             loaded: state,
             warnings,
+            objects,
         })
     }
 
@@ -101,6 +111,8 @@ impl Session {
             "can_save": false,
             "file": self.name.rsplit('/').next().unwrap_or(&self.name),
             "state": self.loaded,
+            "file_state": self.loaded,
+            "objects": self.objects,
             "registry": crate::state::registry_json(&self.registry),
         })
     }
@@ -114,11 +126,24 @@ impl Session {
     /// Renders `state`, with every term's image: the whole frame, or with `part = Some((I, N))`
     /// the bands of part `I` of `N` one under the other (`RenderOptions::compact`).
     pub fn render(&self, state: &State, coarse: bool, part: Option<(u32, u32)>) -> Result<Frame, String> {
+        let applied = self.apply(state)?;
+        Ok(self.render_applied(&applied, state, coarse, part))
+    }
+
+    /// The scene with `state`'s materials and lights, and its model: what [`Session::render`]
+    /// renders, for a caller that renders one state many times (a worker's bands).
+    pub fn apply(&self, state: &State) -> Result<Applied, String> {
         let mut prepared = self.prepared.clone();
         let pipeline = state.apply(&mut prepared, &self.registry)?;
+        Ok(Applied { prepared, pipeline })
+    }
+
+    /// [`Session::render`] of a state already applied (`applied` is [`Session::apply`] of
+    /// `state`).
+    pub fn render_applied(&self, applied: &Applied, state: &State, coarse: bool, part: Option<(u32, u32)>) -> Frame {
         let image = self.image(state, coarse);
         let options = RenderOptions { layers: true, part, compact: part.is_some(), ..RenderOptions::default() };
-        Ok(lancer_shading::render_prepared(&prepared, &self.camera, &image, &pipeline, options))
+        lancer_shading::render_prepared(&applied.prepared, &self.camera, &image, &applied.pipeline, options)
     }
 
     /// Pixel `(x, y)` of the full image of `state` explained, as `lancer explain --json` gives it.
@@ -137,6 +162,21 @@ impl Session {
     pub fn edited(&self, state: &State) -> Result<String, String> {
         crate::save::edited(&self.source, state, &self.loaded)
     }
+}
+
+/// Each prepared object named as the file has it: its number in file order (from 1), its shape
+/// and where its `[[objects]]` entry is written.
+pub fn object_labels(prepared: &Prepared, places: &lancer_scene::Places) -> Vec<String> {
+    prepared
+        .geometry
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| match places.objects.get(i) {
+            Some(p) => format!("object {} ({}, {}:{})", i + 1, o.shape.name(), p.file, p.line),
+            None => format!("object {} ({})", i + 1, o.shape.name()),
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -177,5 +217,6 @@ mod tests {
         let text = s.edited(&state).unwrap();
         assert!(text.contains("[materials.red]\ncolor = [1, 0.2, 0.1]\nshine = 0.75\n"), "{text}");
         assert_eq!(s.hello()["state"]["materials"][0]["label"], "red");
+        assert_eq!(s.hello()["objects"][0], "object 1 (sphere, s.toml:11)");
     }
 }

@@ -1,16 +1,24 @@
-//! The render worker: one thread that renders the newest state (coarse, then full), cancelling a
-//! render as soon as a newer edit arrives, and a watcher that reloads the scene when its files
-//! change. Frames and events go to every connected page.
+//! The render worker: one thread that renders the newest state each viewer asked for (coarse,
+//! then full), cancelling a viewer's render as soon as that viewer asks for a newer one, and a
+//! watcher that reloads the scene when its files change.
+//!
+//! A viewer is every page at once ([`EVERY_PAGE`]: the one shared state, or in a read-only studio
+//! the file's own) or, in a read-only studio (`--read-only`), one page ([`Tab`]), whose edits
+//! render for it alone. Each viewer keeps only its newest request, and the viewers with one
+//! waiting are served in turn, a coarse or a full image at a time: a page dragging a slider holds
+//! another back by one render at most, and its newer edit cancels only its own render.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::collections::{HashMap, VecDeque};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
+use lancer_core::Frame;
 use lancer_shading::{Registry, RenderOptions};
 use notify_debouncer_mini::notify::RecursiveMode;
 use serde_json::json;
-use tokio::sync::{broadcast, watch};
+use tokio::sync::{Notify, broadcast, mpsc, watch};
 
 use crate::State;
 use crate::server::{Loader, SceneSlot};
@@ -24,22 +32,142 @@ pub(crate) type FrameBytes = Arc<Vec<Vec<u8>>>;
 /// Floats per message (2 MB): browsers take much larger messages badly.
 const CHUNK: usize = 512 * 1024;
 
-/// What the server's handlers share with the worker.
+/// The viewer that is every page: the shared state's renders (in a read-only studio, the file's
+/// state's) go to all of them. A read-only studio's tabs are numbered from 1.
+pub(crate) const EVERY_PAGE: u64 = 0;
+
+/// One page of a read-only studio: where the renders of its own edits go.
+pub(crate) struct Tab {
+    /// The newest frame rendered for the page and not yet sent: only the newest is kept, so a
+    /// slow page skips frames and a page holds no frame once it has been sent.
+    frame: Mutex<Option<FrameBytes>>,
+    /// Told when `frame` is set.
+    pub ready: Notify,
+    /// Its renders' errors and progress (dropped when the page does not keep up).
+    events: mpsc::Sender<String>,
+    /// Whether the page shows its own edits: the frames rendered for every page (the file's state)
+    /// are then not for it, until the scene is reloaded.
+    pub own: AtomicBool,
+}
+
+impl Tab {
+    /// The frame waiting to be sent, if any (taken: it is sent once).
+    pub(crate) fn take(&self) -> Option<FrameBytes> {
+        lock(&self.frame).take()
+    }
+}
+
+/// A page's tab for as long as its connection lasts: dropping it forgets the tab's request and
+/// cancels its render in progress.
+pub(crate) struct Joined {
+    shared: Arc<Shared>,
+    /// The tab's viewer number.
+    pub id: u64,
+    /// The tab.
+    pub tab: Arc<Tab>,
+}
+
+impl Drop for Joined {
+    fn drop(&mut self) {
+        let mut queue = lock(&self.shared.queue);
+        queue.tabs.remove(&self.id);
+        queue.forget(self.id);
+    }
+}
+
+/// A render asked for: the state, its generation (what the frame's header says), which image.
+#[derive(Clone, Debug)]
+struct Job {
+    generation: u64,
+    state: State,
+    coarse: bool,
+}
+
+/// The renders waiting, one per viewer, in the order the viewers are served, and the one in
+/// progress.
+#[derive(Default)]
+struct Queue {
+    /// Counts the requests of every viewer: the generation of the newest.
+    generation: u64,
+    /// Each viewer's newest request not yet started.
+    pending: HashMap<u64, Job>,
+    /// The viewers with a request pending, in turn (each once).
+    order: VecDeque<u64>,
+    /// The viewer being rendered for, and the flag that stops that render.
+    running: Option<(u64, Arc<AtomicBool>)>,
+    /// A read-only studio's connected pages, by viewer number.
+    tabs: HashMap<u64, Arc<Tab>>,
+    /// The last tab's number.
+    last_tab: u64,
+}
+
+impl Queue {
+    /// Makes `job` the viewer's newest request: it replaces the one still waiting (which keeps
+    /// its place in turn), or else waits at the end; the viewer's own render in progress is
+    /// cancelled, and no other viewer's.
+    fn push(&mut self, viewer: u64, job: Job) {
+        if self.pending.insert(viewer, job).is_none() {
+            self.order.push_back(viewer);
+        }
+        if let Some((v, cancel)) = &self.running
+            && *v == viewer
+        {
+            cancel.store(true, Ordering::SeqCst);
+        }
+    }
+
+    /// The next viewer's request, in turn.
+    fn pop(&mut self) -> Option<(u64, Job)> {
+        while let Some(viewer) = self.order.pop_front() {
+            if let Some(job) = self.pending.remove(&viewer) {
+                return Some((viewer, job));
+            }
+        }
+        None
+    }
+
+    /// After the coarse image of `job`, its full image waits its turn behind the other viewers'
+    /// requests, unless the viewer asked for something newer meanwhile or is gone.
+    fn then_full(&mut self, viewer: u64, job: Job) {
+        if self.pending.contains_key(&viewer) || (viewer != EVERY_PAGE && !self.tabs.contains_key(&viewer)) {
+            return;
+        }
+        self.push(viewer, Job { coarse: false, ..job });
+    }
+
+    /// Drops the viewer's request and stops its render in progress.
+    fn forget(&mut self, viewer: u64) {
+        if self.pending.remove(&viewer).is_some() {
+            self.order.retain(|v| *v != viewer);
+        }
+        if let Some((v, cancel)) = &self.running
+            && *v == viewer
+        {
+            cancel.store(true, Ordering::SeqCst);
+        }
+    }
+}
+
+/// What the server's handlers share with the worker. Locks are taken in the order `slot`,
+/// `queue`, `current` (or a tab's frame), never the other way.
 pub(crate) struct Shared {
     pub registry: Registry,
     pub slot: Mutex<SceneSlot>,
-    /// The newest state asked for, and its generation.
-    request: Mutex<Option<(u64, State)>>,
+    /// The renders asked for.
+    queue: Mutex<Queue>,
+    /// Wakes the render thread when a request is queued.
     wake: Condvar,
-    generation: AtomicU64,
-    /// The render in progress is stopped when this is set.
-    cancel: Mutex<Arc<AtomicBool>>,
-    /// The current state (the last one asked for, or the file's).
+    /// The state every page shares (the last one asked for, or the file's); in a read-only
+    /// studio, the file's.
     pub current: Mutex<State>,
+    /// The newest frame for every page.
     pub frames: watch::Sender<Option<FrameBytes>>,
+    /// What every page is told (errors, progress, the hello after a reload).
     pub events: broadcast::Sender<String>,
     /// Whether the page may write the scene file.
     pub allow_save: bool,
+    /// Whether each page's edits are its own (`--read-only`); Save is off then.
+    pub read_only: bool,
 }
 
 /// A mutex's guard even if another thread panicked holding it: the data behind these locks is
@@ -48,47 +176,98 @@ pub(crate) fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
+/// Where a render's frames, errors and progress go.
+enum Viewer {
+    /// Every page ([`EVERY_PAGE`]).
+    Every,
+    /// One page of a read-only studio.
+    Tab(Arc<Tab>),
+}
+
 impl Shared {
-    /// Asks for `state` to be rendered, once it has been checked (an invalid edit is answered
-    /// with an error event and changes nothing): the render in progress is cancelled. An edit
-    /// made on a scene since reloaded (an older `epoch`) is dropped.
-    pub(crate) fn ask(&self, state: State) {
+    /// Asks for `state` to be rendered for `viewer` ([`EVERY_PAGE`] or a tab's number), once it
+    /// has been checked: the viewer's render in progress is cancelled. An invalid edit is the
+    /// error returned, and changes nothing. An edit made on a scene since reloaded (an older
+    /// `epoch`) is dropped: `Ok(false)`.
+    pub(crate) fn ask(&self, viewer: u64, state: State) -> Result<bool, String> {
         let (epoch, mut check) = {
             let slot = lock(&self.slot);
             (slot.epoch, slot.prepared.clone())
         };
         if state.epoch != epoch {
-            return;
+            return Ok(false);
         }
-        if let Err(e) = state.apply(&mut check, &self.registry) {
-            let _ = self.events.send(json!({"type": "error", "message": e}).to_string());
-            return;
-        }
-        self.post(state);
+        state.apply(&mut check, &self.registry)?;
+        self.post(viewer, state);
+        Ok(true)
     }
 
-    /// Queues `state` (already checked) for rendering.
-    fn post(&self, state: State) {
+    /// Queues `state` (already checked) for `viewer`; a tab that has left is not served.
+    fn post(&self, viewer: u64, state: State) {
         // The generation, the request and the current state change together.
-        let mut request = lock(&self.request);
-        let generation = self.generation.fetch_add(1, Ordering::SeqCst) + 1;
-        *lock(&self.current) = state.clone();
-        *request = Some((generation, state));
-        lock(&self.cancel).store(true, Ordering::SeqCst);
+        let mut queue = lock(&self.queue);
+        if viewer != EVERY_PAGE && !queue.tabs.contains_key(&viewer) {
+            return;
+        }
+        queue.generation += 1;
+        let generation = queue.generation;
+        if viewer == EVERY_PAGE {
+            *lock(&self.current) = state.clone();
+        }
+        queue.push(viewer, Job { generation, state, coarse: true });
         self.wake.notify_one();
+    }
+
+    /// A new page's tab (read-only studio), and the receiver of its events.
+    pub(crate) fn join(self: &Arc<Self>) -> (Joined, mpsc::Receiver<String>) {
+        let (events, receiver) = mpsc::channel(64);
+        let tab = Arc::new(Tab { frame: Mutex::new(None), ready: Notify::new(), events, own: AtomicBool::new(false) });
+        let mut queue = lock(&self.queue);
+        queue.last_tab += 1;
+        let id = queue.last_tab;
+        queue.tabs.insert(id, tab.clone());
+        (Joined { shared: self.clone(), id, tab }, receiver)
+    }
+
+    /// After a reload: what the tabs asked for or had rendered on the old scene is dropped, and
+    /// every tab shows the file's state again.
+    fn reloaded(&self) {
+        let mut queue = lock(&self.queue);
+        let ids: Vec<u64> = queue.tabs.keys().copied().collect();
+        for id in ids {
+            queue.forget(id);
+        }
+        for tab in queue.tabs.values() {
+            tab.own.store(false, Ordering::SeqCst);
+            lock(&tab.frame).take();
+        }
+    }
+
+    /// Tells the viewer `text` (an error, progress).
+    fn tell(&self, viewer: &Viewer, text: String) {
+        match viewer {
+            Viewer::Every => {
+                let _ = self.events.send(text);
+            }
+            Viewer::Tab(tab) => {
+                let _ = tab.events.try_send(text);
+            }
+        }
     }
 
     /// The message a page gets on connecting and after a reload.
     pub(crate) fn hello(&self) -> String {
-        let (scene, width, height, warnings, can_save, file) = {
+        let (scene, width, height, warnings, can_save, file, objects, file_state) = {
             let slot = lock(&self.slot);
             (
                 slot.name.clone(),
                 slot.image.width,
                 slot.image.height,
                 slot.warnings.clone(),
-                self.allow_save && slot.path.is_some(),
+                self.allow_save && !self.read_only && slot.path.is_some(),
                 slot.path.as_ref().and_then(|p| p.file_name()).map(|n| n.to_string_lossy().into_owned()),
+                slot.objects.clone(),
+                slot.loaded.clone(),
             )
         };
         json!({
@@ -98,15 +277,25 @@ impl Shared {
             "height": height,
             "warnings": warnings,
             "can_save": can_save,
+            "read_only": self.read_only,
             "file": file,
             "state": *lock(&self.current),
+            "file_state": file_state,
+            "objects": objects,
             "registry": crate::state::registry_json(&self.registry),
         })
         .to_string()
     }
 }
 
-pub(crate) fn start(registry: Registry, slot: SceneSlot, loader: Loader, allow_save: bool) -> Result<Arc<Shared>> {
+/// Starts the render thread and the watcher, and queues the file's state for every page.
+pub(crate) fn start(
+    registry: Registry,
+    slot: SceneSlot,
+    loader: Loader,
+    allow_save: bool,
+    read_only: bool,
+) -> Result<Arc<Shared>> {
     let (frames, _) = watch::channel(None);
     let (events, _) = broadcast::channel(64);
     let state = slot.loaded.clone();
@@ -114,108 +303,144 @@ pub(crate) fn start(registry: Registry, slot: SceneSlot, loader: Loader, allow_s
     let shared = Arc::new(Shared {
         registry,
         slot: Mutex::new(slot),
-        request: Mutex::new(None),
+        queue: Mutex::new(Queue::default()),
         wake: Condvar::new(),
-        generation: AtomicU64::new(0),
-        cancel: Mutex::new(Arc::new(AtomicBool::new(false))),
         current: Mutex::new(state.clone()),
         frames,
         events,
         allow_save,
+        read_only,
     });
     let worker = shared.clone();
     std::thread::Builder::new().name("render".into()).spawn(move || render_loop(&worker))?;
     watch_files(shared.clone(), loader, inputs)?;
-    shared.post(state);
+    shared.post(EVERY_PAGE, state);
     Ok(shared)
 }
 
 fn render_loop(shared: &Shared) {
     loop {
-        let (generation, state) = {
-            let mut request = lock(&shared.request);
-            loop {
-                if let Some(r) = request.take() {
-                    break r;
+        let (id, job, viewer, cancel) = {
+            let mut queue = lock(&shared.queue);
+            let (id, job) = loop {
+                if let Some(next) = queue.pop() {
+                    break next;
                 }
-                request = shared.wake.wait(request).unwrap_or_else(std::sync::PoisonError::into_inner);
-            }
-        };
-        let cancel = Arc::new(AtomicBool::new(false));
-        *lock(&shared.cancel) = cancel.clone();
-        // A request that came between taking it and installing the flag: start over.
-        if shared.generation.load(Ordering::SeqCst) != generation {
-            continue;
-        }
-        // The scene is copied out (meshes are shared, not copied): the lock is held for that
-        // only, never during a render.
-        let (mut prepared, camera, base_image) = {
-            let slot = lock(&shared.slot);
-            (slot.prepared.clone(), slot.camera, slot.image)
-        };
-        let pipeline = match state.apply(&mut prepared, &shared.registry) {
-            Ok(p) => p,
-            Err(e) => {
-                let _ = shared.events.send(json!({"type": "error", "message": e}).to_string());
-                continue;
-            }
-        };
-        for coarse in [true, false] {
-            let image = crate::state::image_for(&base_image, &state, coarse);
-            let start = Instant::now();
-            let last = Mutex::new(Instant::now());
-            let progress = |done: usize, total: usize| {
-                let mut last = lock(&last);
-                if last.elapsed() > Duration::from_millis(100) {
-                    *last = Instant::now();
-                    let _ = shared.events.send(json!({"type": "progress", "done": done, "total": total}).to_string());
-                }
+                queue = shared.wake.wait(queue).unwrap_or_else(std::sync::PoisonError::into_inner);
             };
-            let frame = lancer_shading::render_prepared(
-                &prepared,
-                &camera,
-                &image,
-                &pipeline,
-                RenderOptions {
-                    progress: Some(&progress),
-                    timing: false,
-                    part: None,
-                    cancel: Some(&cancel),
-                    layers: true,
-                    reference: false,
-                    compact: false,
-                },
-            );
-            if cancel.load(Ordering::SeqCst) {
-                break;
-            }
-            let floats: Vec<f32> =
-                frame.layers.iter().flat_map(|l| bytemuck::cast_slice::<_, f32>(&l.pixels).iter().copied()).collect();
-            let mut messages = Vec::new();
-            for offset in (0..floats.len().max(1)).step_by(CHUNK) {
-                let part = &floats[offset.min(floats.len())..(offset + CHUNK).min(floats.len())];
-                let header = json!({
-                    "generation": generation,
-                    "width": frame.width,
-                    "height": frame.height,
-                    "coarse": coarse,
-                    "seconds": start.elapsed().as_secs_f64(),
-                    "layers": frame.layers.iter().map(|l| l.name.clone()).collect::<Vec<_>>(),
-                    "offset": offset,
-                    "count": part.len(),
-                    "total": floats.len(),
-                })
-                .to_string();
-                let mut bytes = Vec::with_capacity(4 + header.len() + part.len() * 4);
-                bytes.extend_from_slice(&(header.len() as u32).to_le_bytes());
-                bytes.extend_from_slice(header.as_bytes());
-                bytes.extend_from_slice(bytemuck::cast_slice(part));
-                messages.push(bytes);
-            }
-            // Kept for pages that connect later, even when none is listening now.
-            shared.frames.send_replace(Some(Arc::new(messages)));
+            let viewer = if id == EVERY_PAGE {
+                Viewer::Every
+            } else if let Some(tab) = queue.tabs.get(&id) {
+                Viewer::Tab(tab.clone())
+            } else {
+                continue;
+            };
+            let cancel = Arc::new(AtomicBool::new(false));
+            queue.running = Some((id, cancel.clone()));
+            (id, job, viewer, cancel)
+        };
+        let shown = render(shared, &job, &viewer, &cancel);
+        let mut queue = lock(&shared.queue);
+        queue.running = None;
+        if shown && job.coarse {
+            queue.then_full(id, job);
         }
     }
+}
+
+/// Renders `job` for `viewer` and hands it the frame: whether it did (not if cancelled, invalid,
+/// or made on a scene since reloaded).
+fn render(shared: &Shared, job: &Job, viewer: &Viewer, cancel: &AtomicBool) -> bool {
+    // The scene is copied out (meshes are shared, not copied): the lock is held for that only,
+    // never during a render.
+    let (mut prepared, camera, base_image, epoch) = {
+        let slot = lock(&shared.slot);
+        (slot.prepared.clone(), slot.camera, slot.image, slot.epoch)
+    };
+    if job.state.epoch != epoch {
+        return false;
+    }
+    let pipeline = match job.state.apply(&mut prepared, &shared.registry) {
+        Ok(p) => p,
+        Err(e) => {
+            shared.tell(viewer, json!({"type": "error", "message": e}).to_string());
+            return false;
+        }
+    };
+    let image = crate::state::image_for(&base_image, &job.state, job.coarse);
+    let start = Instant::now();
+    let last = Mutex::new(Instant::now());
+    let progress = |done: usize, total: usize| {
+        let mut last = lock(&last);
+        if last.elapsed() > Duration::from_millis(100) {
+            *last = Instant::now();
+            shared.tell(viewer, json!({"type": "progress", "done": done, "total": total}).to_string());
+        }
+    };
+    let frame = lancer_shading::render_prepared(
+        &prepared,
+        &camera,
+        &image,
+        &pipeline,
+        RenderOptions {
+            progress: Some(&progress),
+            timing: false,
+            part: None,
+            cancel: Some(cancel),
+            layers: true,
+            reference: false,
+            compact: false,
+        },
+    );
+    if cancel.load(Ordering::SeqCst) {
+        return false;
+    }
+    let messages = Arc::new(frame_messages(&frame, job, start.elapsed()));
+    match viewer {
+        // Kept for pages that connect later, even when none is listening now.
+        Viewer::Every => {
+            shared.frames.send_replace(Some(messages));
+        }
+        Viewer::Tab(tab) => {
+            // Under the slot's lock: once the scene has been reloaded, the page is back on the
+            // file's state and an image of the old scene is not for it.
+            let slot = lock(&shared.slot);
+            if slot.epoch != epoch {
+                return false;
+            }
+            *lock(&tab.frame) = Some(messages);
+            tab.ready.notify_one();
+        }
+    }
+    true
+}
+
+/// A frame as the messages of [`FrameBytes`].
+fn frame_messages(frame: &Frame, job: &Job, seconds: Duration) -> Vec<Vec<u8>> {
+    let floats: Vec<f32> =
+        frame.layers.iter().flat_map(|l| bytemuck::cast_slice::<_, f32>(&l.pixels).iter().copied()).collect();
+    let mut messages = Vec::new();
+    for offset in (0..floats.len().max(1)).step_by(CHUNK) {
+        let part = &floats[offset.min(floats.len())..(offset + CHUNK).min(floats.len())];
+        let header = json!({
+            "generation": job.generation,
+            "width": frame.width,
+            "height": frame.height,
+            "coarse": job.coarse,
+            "seconds": seconds.as_secs_f64(),
+            "layers": frame.layers.iter().map(|l| l.name.clone()).collect::<Vec<_>>(),
+            "offset": offset,
+            "count": part.len(),
+            "total": floats.len(),
+        })
+        .to_string();
+        let mut bytes = Vec::with_capacity(4 + header.len() + part.len() * 4);
+        bytes.extend_from_slice(&(header.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(header.as_bytes());
+        bytes.extend_from_slice(bytemuck::cast_slice(part));
+        messages.push(bytes);
+    }
+    messages
 }
 
 /// Reloads the scene whenever one of its files changes (size or time), and tells the pages.
@@ -262,7 +487,8 @@ fn watch_files(shared: Arc<Shared>, loader: Loader, inputs: Vec<std::path::PathB
                     if files != before {
                         stamps = files.iter().map(|f| stamp(f)).collect();
                     }
-                    shared.post(state);
+                    shared.reloaded();
+                    shared.post(EVERY_PAGE, state);
                     let _ = shared.events.send(shared.hello());
                 }
                 Err(message) => {
@@ -272,4 +498,108 @@ fn watch_files(shared: Arc<Shared>, loader: Loader, inputs: Vec<std::path::PathB
         }
     })?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::state::{ModelState, ShadowState};
+
+    fn job(generation: u64) -> Job {
+        let model = ModelState {
+            terms: Vec::new(),
+            shadows: ShadowState { name: "hard".into(), params: Default::default() },
+            max_depth: 1,
+            samples: 1,
+        };
+        Job { generation, state: State { epoch: 0, materials: Vec::new(), lights: Vec::new(), model }, coarse: true }
+    }
+
+    /// A queue with tabs 1 and 2 connected.
+    fn two_tabs() -> Queue {
+        let mut q = Queue::default();
+        for id in [1, 2] {
+            let (events, _) = mpsc::channel(1);
+            q.tabs.insert(
+                id,
+                Arc::new(Tab { frame: Mutex::new(None), ready: Notify::new(), events, own: AtomicBool::new(false) }),
+            );
+        }
+        q
+    }
+
+    /// Takes the next request as the render thread does: it is running, with a flag of its own.
+    fn start(q: &mut Queue) -> (u64, Job, Arc<AtomicBool>) {
+        let (viewer, job) = q.pop().expect("a request");
+        let cancel = Arc::new(AtomicBool::new(false));
+        q.running = Some((viewer, cancel.clone()));
+        (viewer, job, cancel)
+    }
+
+    #[test]
+    fn a_tab_dragging_a_slider_does_not_starve_another() {
+        let mut q = two_tabs();
+        q.push(1, job(1));
+        q.push(2, job(2));
+        let (viewer, _, cancel) = start(&mut q);
+        assert_eq!(viewer, 1);
+        // Tab 1 keeps dragging: its render stops, and its newest edit waits behind tab 2's.
+        for g in 3..50 {
+            q.push(1, job(g));
+        }
+        assert!(cancel.load(Ordering::SeqCst));
+        q.running = None;
+        assert_eq!(q.order, [2, 1], "each viewer waits once, whatever it sent");
+        let (viewer, job2, _) = start(&mut q);
+        assert_eq!((viewer, job2.generation), (2, 2));
+        let (viewer, newest, _) = start(&mut q);
+        assert_eq!((viewer, newest.generation), (1, 49), "only the newest edit is kept");
+        assert!(q.pop().is_none());
+    }
+
+    #[test]
+    fn a_newer_edit_cancels_only_its_own_viewers_render() {
+        let mut q = two_tabs();
+        q.push(2, job(1));
+        let (_, _, cancel) = start(&mut q);
+        q.push(1, job(2));
+        q.push(EVERY_PAGE, job(3));
+        assert!(!cancel.load(Ordering::SeqCst), "another viewer's edit stopped tab 2's render");
+        q.push(2, job(4));
+        assert!(cancel.load(Ordering::SeqCst));
+    }
+
+    #[test]
+    fn a_full_image_waits_behind_the_other_viewers_coarse_ones() {
+        let mut q = two_tabs();
+        q.push(1, job(1));
+        let (_, coarse, _) = start(&mut q);
+        q.push(2, job(2));
+        q.running = None;
+        q.then_full(1, coarse.clone());
+        let (viewer, _, _) = start(&mut q);
+        assert_eq!(viewer, 2);
+        let (viewer, full, _) = start(&mut q);
+        assert_eq!((viewer, full.generation, full.coarse), (1, 1, false));
+        // Not when a newer edit is waiting, nor for a tab that has left.
+        q.push(1, job(3));
+        q.then_full(1, coarse.clone());
+        assert_eq!(q.pop().map(|(v, j)| (v, j.generation, j.coarse)), Some((1, 3, true)));
+        q.tabs.remove(&1);
+        q.then_full(1, coarse);
+        assert!(q.pop().is_none());
+    }
+
+    #[test]
+    fn a_tab_that_leaves_is_forgotten_and_its_render_stopped() {
+        let mut q = two_tabs();
+        q.push(1, job(1));
+        q.push(2, job(2));
+        let (_, _, cancel) = start(&mut q);
+        q.push(1, job(3));
+        q.forget(1);
+        assert!(cancel.load(Ordering::SeqCst));
+        assert_eq!(q.order, [2]);
+        assert_eq!(q.pop().map(|(v, _)| v), Some(2));
+    }
 }

@@ -8,7 +8,7 @@
 use lancer_scene::Limits;
 use lancer_shading::Registry;
 use lancer_studio::State;
-use lancer_studio::session::{SceneError, Session};
+use lancer_studio::session::{Applied, SceneError, Session};
 use wasm_bindgen::prelude::*;
 
 #[wasm_bindgen]
@@ -58,11 +58,23 @@ fn state(json: &str) -> Result<State, String> {
     serde_json::from_str(json).map_err(|e| format!("the page's state: {e}"))
 }
 
-/// One engine: a registry of the built-in terms and the scene loaded last.
+/// The message of the last panic (a bug): a panic traps the instance, and the page reads this
+/// to say what went wrong before it replaces the instance.
+static LAST_PANIC: std::sync::Mutex<String> = std::sync::Mutex::new(String::new());
+
+/// The last panic's message (empty when none happened).
+#[wasm_bindgen]
+pub fn last_panic() -> String {
+    LAST_PANIC.lock().map(|m| m.clone()).unwrap_or_default()
+}
+
+/// One engine: a registry of the built-in terms, the scene loaded last and the state applied
+/// last (a worker renders one state band after band: it is applied once).
 #[wasm_bindgen]
 pub struct Engine {
     registry: Registry,
     session: Option<Session>,
+    applied: Option<(String, Applied)>,
 }
 
 /// A render's result: a JSON header and the floats of every layer.
@@ -100,8 +112,14 @@ impl Engine {
     #[wasm_bindgen(constructor)]
     pub fn new() -> Engine {
         // A panic (a bug) traps the instance; its message goes to the console first.
-        std::panic::set_hook(Box::new(|info| error(&format!("lancer: {info}"))));
-        Engine { registry: Registry::with_builtins(), session: None }
+        std::panic::set_hook(Box::new(|info| {
+            let message = format!("lancer: {info}");
+            error(&message);
+            if let Ok(mut last) = LAST_PANIC.lock() {
+                *last = message;
+            }
+        }));
+        Engine { registry: Registry::with_builtins(), session: None, applied: None }
     }
 
     /// Whether this module was built with WebAssembly SIMD (128-bit vectors).
@@ -120,6 +138,7 @@ impl Engine {
             Session::load(&self.registry, name, source, &|p: &str| files.get(p), &Limits::default()).map_err(json)?;
         let hello = session.hello().to_string();
         self.session = Some(session);
+        self.applied = None;
         Ok(hello)
     }
 
@@ -130,14 +149,18 @@ impl Engine {
     /// Renders the state `state_json` (the page's JSON): the coarse or full image, its bands of
     /// part `part` of `parts` (`lancer render --tile PART/PARTS`), or the whole image when
     /// `parts` is 0.
-    pub fn render(&self, state_json: &str, coarse: bool, part: u32, parts: u32) -> Result<Rendered, String> {
-        let session = self.session()?;
+    pub fn render(&mut self, state_json: &str, coarse: bool, part: u32, parts: u32) -> Result<Rendered, String> {
+        let session = self.session.as_ref().ok_or_else(|| "no scene is loaded".to_owned())?;
         let state = state(state_json)?;
         if parts > 0 && part >= parts {
             return Err(format!("part {part} of {parts}: parts are numbered from 0"));
         }
         let split = (parts > 0).then_some((part, parts));
-        let frame = session.render(&state, coarse, split)?;
+        if self.applied.as_ref().is_none_or(|(json, _)| json != state_json) {
+            self.applied = Some((state_json.to_owned(), session.apply(&state)?));
+        }
+        let (_, applied) = self.applied.as_ref().expect("applied just above");
+        let frame = session.render_applied(applied, &state, coarse, split);
         let image = session.image(&state, coarse);
         let bands: Vec<u32> = match split {
             Some((i, n)) => lancer_shading::part_bands(image.height, i, n).collect(),

@@ -11,9 +11,9 @@
 
 mod flip;
 mod heatmap;
-mod metrics;
+pub(crate) mod metrics;
 mod mismatch;
-mod read;
+pub(crate) mod read;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -21,6 +21,7 @@ pub const SPEC: ShadowSpec = ShadowSpec {
     summary: "the handout's shadows: any object between the point and the light blocks it",
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Hard)),
+    mistake: None,
 };
 
 struct Hard;

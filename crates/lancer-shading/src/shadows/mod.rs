@@ -1,15 +1,20 @@
 //! The built-in shadow models, one file each, and their ordered table.
 
 pub mod hard;
+pub mod no_offset;
 pub mod none;
+pub mod past_light;
 pub mod soft;
 pub mod transmissive;
 
 use crate::ShadowSpec;
 
 /// The built-in shadow models, in the order `lancer terms` lists them. The first is not the
-/// default: a model that names no shadow model gets `hard` (the handout's).
-pub const BUILTIN: &[ShadowSpec] = &[none::SPEC, hard::SPEC, transmissive::SPEC, soft::SPEC];
+/// default: a model that names no shadow model gets `hard` (the handout's). The classic
+/// mistakes of the course come last (their specs' `mistake` is set: `lancer terms --mistakes`
+/// lists them).
+pub const BUILTIN: &[ShadowSpec] =
+    &[none::SPEC, hard::SPEC, transmissive::SPEC, soft::SPEC, no_offset::SPEC, past_light::SPEC];
 
 /// The shadow model a model gets when it names none.
 pub const DEFAULT: &str = "hard";

@@ -19,6 +19,7 @@ pub const SPEC: ShadowSpec = ShadowSpec {
     summary: "no shadows: every light reaches every surface that faces it",
     params: &[],
     build: |_: &mut Params| Ok(Box::new(NoShadows)),
+    mistake: None,
 };
 
 struct NoShadows;

@@ -45,6 +45,7 @@ pub const SPEC: ShadowSpec = ShadowSpec {
         }
         Ok(Box::new(Soft { side: side as u32, tint: p.boolean(TINT.name, false)? }))
     },
+    mistake: None,
 };
 
 struct Soft {

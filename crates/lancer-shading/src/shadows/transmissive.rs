@@ -24,6 +24,7 @@ pub const SPEC: ShadowSpec = ShadowSpec {
     summary: "transparent occluders attenuate the light by their alpha instead of blocking it",
     params: &[TINT],
     build: |p: &mut Params| Ok(Box::new(Transmissive { tint: p.boolean(TINT.name, false)? })),
+    mistake: None,
 };
 
 /// The `tint` parameter, shared with the `soft` model.

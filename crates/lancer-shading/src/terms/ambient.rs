@@ -21,6 +21,7 @@ pub const SPEC: TermSpec = TermSpec {
     summary: "ambi · Col_Ω: uniform light from unmodelled inter-reflections",
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Ambient)),
+    mistake: None,
 };
 
 struct Ambient;

@@ -13,6 +13,7 @@ let frame = null;         // { width, height, coarse, layers: [{name, data: Floa
 let selected = "beauty";  // the layer shown big
 let snapshot = null;      // { width, height, pixels: Uint8ClampedArray, name }
 let width = 0, height = 0; // the full image's size
+let marked = null;         // the pixel explained last
 
 const FORMULAS = {
   ambi: "ambient: ambi · Col_Ω",
@@ -35,33 +36,51 @@ function serverEngine() {
   ws.binaryType = "arraybuffer";
   ws.onopen = () => status("connected");
   ws.onclose = () => status("disconnected: restart lancer serve and reload");
+  // `--read-only` (the hello says): this tab's edits are its own, so the inspector and Download
+  // send them along; otherwise the server's one shared state is what the image shows.
+  let readOnly = false;
   ws.onmessage = (e) => {
-    if (typeof e.data === "string") return message(JSON.parse(e.data));
+    if (typeof e.data === "string") {
+      const m = JSON.parse(e.data);
+      if (m.type === "hello") readOnly = !!m.read_only;
+      return message(m);
+    }
     receiveFrame(e.data);
   };
+  const ask = (url, state) => fetch(url, readOnly ? { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(state) } : {});
   return {
     send(state) { ws.send(JSON.stringify(state)); },
-    async explain(_state, x, y) { const r = await fetch(`/api/explain?x=${x}&y=${y}`); return { ok: r.ok, text: await r.text() }; },
-    async sceneText() { const r = await fetch("/api/scene.toml"); return { ok: r.ok, text: await r.text() }; },
+    async explain(state, x, y) { const r = await ask(`/api/explain?x=${x}&y=${y}`, state); return { ok: r.ok, text: await r.text() }; },
+    async sceneText(state) { const r = await ask("/api/scene.toml", state); return { ok: r.ok, text: await r.text() }; },
+    // The server encodes what the page holds: the bytes `lancer render` writes.
+    async encode(format, width, height, floats) {
+      const r = await fetch(`/api/encode?format=${format}&width=${width}&height=${height}`, { method: "POST", body: floats });
+      if (!r.ok) throw await r.text();
+      return new Uint8Array(await r.arrayBuffer());
+    },
   };
 }
 
 function status(text) { $("status").textContent = text; }
 
 let fileState = null; // the state as the file has it (for "reset to the file")
+let objectLabels = []; // each object as the file names it: `object 3 (sphere, glass.toml:45)`
 
 function message(m) {
   if (m.type === "hello") {
     registry = m.registry;
     state = m.state;
-    fileState = JSON.parse(JSON.stringify(m.state));
+    fileState = JSON.parse(JSON.stringify(m.file_state ?? m.state));
+    objectLabels = m.objects || [];
     width = m.width; height = m.height;
     $("scene").textContent = `${m.scene} · ${m.width}×${m.height}`;
     $("error").hidden = true;
     $("warnings").hidden = m.warnings.length === 0;
     $("warnings").textContent = m.warnings.join("\n");
     $("save").disabled = !m.can_save;
-    $("save").title = m.can_save ? `write the edits into ${m.file}` : "start lancer serve with --allow-save";
+    $("save").title = m.can_save ? `write the edits into ${m.file}`
+      : m.read_only ? "the studio is read-only: your edits stay in this tab (Download keeps them)"
+      : "start lancer serve with --allow-save";
     sceneFile = m.file || "scene.toml";
     buildPanels();
     if (!LOCAL) showSource();
@@ -106,7 +125,7 @@ function showFrame(f) {
 // fingerprint of each layer.
 const studio = window.studio = {
   arrivals: [],
-  frame: () => frame && { width: frame.width, height: frame.height, coarse: frame.coarse, generation: frame.generation, layers: frame.layers.map((l) => l.name) },
+  frame: () => frame && { width: frame.width, height: frame.height, coarse: frame.coarse, generation: frame.generation, key: frame.key, layers: frame.layers.map((l) => l.name) },
   hash(name) {
     const data = frame && layerData(name);
     if (!data) return null;
@@ -120,9 +139,31 @@ const studio = window.studio = {
     const data = frame && layerData(name);
     return data ? base64(new Uint8Array(data.buffer, data.byteOffset, data.byteLength)) : null;
   },
+  // `cargo xtask bench`: `n` full renders of the current state one after the other, with no
+  // coarse image first; their times (ms, from the request to the frame) land in `benchTimes`.
+  benchTimes: null,
+  bench(n) {
+    studio.benchTimes = null;
+    const times = [];
+    const one = () => {
+      const start = performance.now();
+      const before = frame ? frame.generation : 0;
+      engine.send(state, { coarse: false });
+      const poll = () => {
+        if (frame && frame.generation > before && !frame.coarse) {
+          times.push(performance.now() - start);
+          return times.length < n ? setTimeout(one, 50) : (studio.benchTimes = times);
+        }
+        setTimeout(poll, 2);
+      };
+      poll();
+    };
+    one();
+    return true;
+  },
   // The last file offered for download: its name and bytes as base64.
   lastDownload: null,
-  engineInfo: () => engine && { local: LOCAL, simd: !!engine.simd, workers: engine.workers || 0 },
+  engineInfo: () => engine && { local: LOCAL, simd: !!engine.simd, workers: engine.workers || 0, key: engine.key || 0 },
   pixel(name, x, y) {
     const data = frame && layerData(name);
     const i = 3 * (y * frame.width + x);
@@ -151,9 +192,23 @@ function falseColour(v) {
   return stops[i].map((c, j) => c + (stops[i + 1][j] - c) * k);
 }
 
-function toPixels(data, w, h) {
+// Each image keeps its own exposure (a term's image is often far darker than the beauty
+// image); the slider shows and sets the one of the image shown.
+const exposures = {};
+const exposureOf = (name) => exposures[name] ?? 0;
+
+/// The exposure that puts the brightest 0.5 % of an image's luminance at 0.9 (whole stops).
+function autoExposure(data) {
+  const lum = [];
+  for (let p = 0; p < data.length / 3; p += 7) lum.push(0.2126 * data[3 * p] + 0.7152 * data[3 * p + 1] + 0.0722 * data[3 * p + 2]);
+  lum.sort((a, b) => a - b);
+  const high = lum[Math.floor(lum.length * 0.995)] || 0;
+  return high > 0 ? Math.max(-6, Math.min(12, Math.floor(Math.log2(0.9 / high)))) : 0;
+}
+
+function toPixels(data, w, h, name = selected) {
   const out = new Uint8ClampedArray(w * h * 4);
-  const gain = Math.pow(2, parseFloat($("exposure").value));
+  const gain = Math.pow(2, exposureOf(name));
   const fc = $("falsecolour").checked;
   for (let p = 0; p < w * h; p++) {
     let r = data[3 * p] * gain, g = data[3 * p + 1] * gain, b = data[3 * p + 2] * gain;
@@ -182,7 +237,21 @@ function draw() {
     }
     pixels = mixed;
   }
-  canvas.getContext("2d").putImageData(new ImageData(pixels, frame.width, frame.height), 0, 0);
+  const ctx = canvas.getContext("2d");
+  ctx.putImageData(new ImageData(pixels, frame.width, frame.height), 0, 0);
+  const scale = frame.width / width;
+  if (useSnap) {
+    // The wipe's divider, a dark and a light line.
+    const at = Math.round(parseFloat($("wipe").value) * frame.width);
+    ctx.fillStyle = "#000"; ctx.fillRect(at - 1, 0, 1, frame.height);
+    ctx.fillStyle = "#fff"; ctx.fillRect(at, 0, 1, frame.height);
+  }
+  if (marked) {
+    // The explained pixel, ringed.
+    const px = (marked.x + 0.5) * scale, py = (marked.y + 0.5) * scale, r = Math.max(3, 4 * scale);
+    ctx.strokeStyle = "#ff0"; ctx.lineWidth = Math.max(1, scale);
+    ctx.strokeRect(px - r, py - r, 2 * r, 2 * r);
+  }
   // "fit": the whole image in the stage (the screen, full-screen); else whole screen pixels per
   // image pixel, square.
   const fit = $("zoom").value === "fit";
@@ -190,7 +259,9 @@ function draw() {
   const room = document.fullscreenElement === stage
     ? Math.min(stage.clientWidth / width, stage.clientHeight / height)
     : Math.min(stage.clientWidth / width, (window.innerHeight * 0.7) / height);
-  const zoom = (fit ? Math.max(0.1, room) : parseFloat($("zoom").value)) * (frame.coarse ? width / frame.width : 1);
+  // (Fit keeps square pixels: whole screen pixels per image pixel once the image is enlarged.)
+  const fitted = room >= 1 ? Math.floor(room) : Math.max(0.1, room);
+  const zoom = (fit ? fitted : parseFloat($("zoom").value)) * (frame.coarse ? width / frame.width : 1);
   canvas.style.width = `${frame.width * zoom}px`;
   canvas.style.height = `${frame.height * zoom}px`;
   $("showing").textContent = `showing ${selected}${useSnap ? " (snapshot left of the wipe)" : ""}${frame.coarse ? " — coarse, the full image follows" : ""}`;
@@ -199,6 +270,23 @@ function draw() {
     $("psnr").textContent = `PSNR vs snapshot: ${psnr(current, snapshot.pixels).toFixed(1)} dB`;
   }
   drawThumbs();
+  legend();
+}
+
+// False colour's key: the ramp, with the luminance (in the image's own units, its exposure
+// taken out) at each decade.
+function legend() {
+  const box = $("legend");
+  box.hidden = !$("falsecolour").checked;
+  if (box.hidden) return;
+  const c = $("legend-ramp"), ctx = c.getContext("2d");
+  for (let x = 0; x < c.width; x++) {
+    const v = Math.pow(10, -4 + 4 * x / (c.width - 1));
+    ctx.fillStyle = `rgb(${falseColour(v).map((k) => Math.round(k * 255)).join(",")})`;
+    ctx.fillRect(x, 0, 1, c.height);
+  }
+  const gain = Math.pow(2, exposureOf(selected));
+  $("legend-ticks").replaceChildren(...[-4, -3, -2, -1, 0].map((k) => el("span", { textContent: (Math.pow(10, k) / gain).toPrecision(2) })));
 }
 
 function psnr(a, b) {
@@ -215,20 +303,23 @@ function drawThumbs() {
     fig.className = name === selected ? "selected" : "";
     const c = document.createElement("canvas");
     c.width = frame.width; c.height = frame.height;
-    c.getContext("2d").putImageData(new ImageData(toPixels(layerData(name), frame.width, frame.height), frame.width, frame.height), 0, 0);
+    c.getContext("2d").putImageData(new ImageData(toPixels(layerData(name), frame.width, frame.height, name), frame.width, frame.height), 0, 0);
     const cap = document.createElement("figcaption");
-    cap.textContent = name;
+    cap.textContent = exposureOf(name) ? `${name} (${exposureOf(name) > 0 ? "+" : ""}${exposureOf(name)} stops)` : name;
     fig.append(c, cap);
     fig.dataset.layer = name;
-    fig.onclick = () => { selected = name; draw(); };
+    fig.onclick = () => { selected = name; showExposure(); draw(); };
     return fig;
   }));
 }
 
-for (const id of ["exposure", "falsecolour", "zoom", "showsnap", "wipe"]) $(id).addEventListener("input", () => {
-  $("exposure-value").textContent = `${$("exposure").value} stops`;
-  draw();
-});
+function showExposure() {
+  $("exposure").value = exposureOf(selected);
+  $("exposure-value").textContent = `${exposureOf(selected)} stops`;
+}
+$("exposure").addEventListener("input", () => { exposures[selected] = parseFloat($("exposure").value); showExposure(); draw(); });
+$("auto-exposure").onclick = () => { if (frame) { exposures[selected] = autoExposure(layerData(selected)); showExposure(); draw(); } };
+for (const id of ["falsecolour", "zoom", "showsnap", "wipe"]) $(id).addEventListener("input", draw);
 $("keep").onclick = () => {
   if (!frame) return;
   snapshot = { width: frame.width, height: frame.height, pixels: toPixels(layerData(selected), frame.width, frame.height) };
@@ -239,7 +330,7 @@ $("fullscreen").onclick = () => (document.fullscreenElement ? document.exitFulls
 document.addEventListener("fullscreenchange", draw);
 window.addEventListener("resize", () => { if ($("zoom").value === "fit") draw(); });
 document.addEventListener("keydown", (e) => {
-  if ((e.key === "f" || e.key === "F") && snapshot && e.target.tagName !== "INPUT") {
+  if ((e.key === "f" || e.key === "F") && snapshot && !["INPUT", "TEXTAREA", "SELECT"].includes(e.target.tagName)) {
     $("showsnap").checked = !$("showsnap").checked;
     draw();
   }
@@ -255,33 +346,74 @@ $("main").addEventListener("click", async (e) => {
   const { ok, text } = await engine.explain(state, x, y);
   if (!ok) { $("inspector").textContent = text; return; }
   const doc = JSON.parse(text);
-  $("inspector").textContent = explainText(doc, x, y);
+  $("inspector").innerHTML = explainText(doc, x, y);
   $("inspector").dataset.json = text;
+  marked = { x, y };
+  draw();
 });
 
 const vec = (v) => `(${v.map((c) => c.toFixed(4)).join(", ")})`;
 
+const html = (t) => String(t).replace(/&/g, "&amp;").replace(/</g, "&lt;").replace(/>/g, "&gt;");
+
+// What a ray's subtree brought to the pixel: every term's addition below it and the
+// background it saw, each already weighted as it reached the pixel.
+function carried(ray) {
+  let sum = [0, 0, 0];
+  const add = (v) => { sum = sum.map((c, i) => c + v[i]); };
+  for (const t of ray.terms) add(t.added);
+  if (!ray.hit && ray.background) add(ray.background.map((c, i) => c * ray.weight[i]));
+  for (const c of ray.children) add(carried(c));
+  return sum;
+}
+
+/// The explanation as HTML lines: each ray, its hit (the material named as the file names it,
+/// a link to its sliders), its lights, and under each term the rays it spawned with what they
+/// carried back.
 function explainText(doc, x, y) {
   const lines = [`pixel ${x},${y}`];
+  const material = (i) => {
+    const m = state.materials[i];
+    return m ? `<a href="#" data-material-link="${i}">material "${html(m.label)}"</a>` : `the default material`;
+  };
   const walk = (ray, depth) => {
     const pad = "  ".repeat(depth);
-    lines.push(`${pad}${ray.kind} ray, generation ${ray.generation}: u = ${vec(ray.direction)}, weight ${vec(ray.weight)}`);
+    lines.push(`${pad}${html(ray.kind)} ray, generation ${ray.generation}: u = ${vec(ray.direction)}, weight ${vec(ray.weight)}`);
     if (!ray.hit) { lines.push(`${pad}  hits nothing${ray.background ? `: background ${vec(ray.background)}` : ""}`); return; }
     const h = ray.hit;
-    lines.push(`${pad}  hits object ${h.object} (${h.shape}), material ${h.material}: I = ${vec(h.point)}, N = ${vec(h.normal)}, Col_Ω = ${vec(h.color)}`);
+    lines.push(`${pad}  hits ${html(objectLabels[h.object] ?? `object ${h.object + 1} (${h.shape})`)}, ${material(h.material)}: I = ${vec(h.point)}, N = ${vec(h.normal)}, Col_Ω = ${vec(h.color)}`);
     ray.lights.forEach((l, k) => lines.push(`${pad}  light ${k + 1}: ${l.traced ? `N·w = ${l.n_dot_w.toFixed(4)}, transmittance ${vec(l.transmittance)}` : "not lighting this point"}`));
+    const spawned = new Set();
     for (const t of ray.terms) {
-      const notes = t.notes.map((n) => `${n.name} = ${Array.isArray(n.value) ? vec(n.value) : typeof n.value === "number" ? n.value.toFixed(4) : n.value}`);
-      if (t.added.some((c) => c !== 0) || notes.length) lines.push(`${pad}  ${t.term}: adds ${vec(t.added)}${notes.length ? "  [" + notes.join("; ") + "]" : ""}`);
+      const notes = t.notes.map((n) => `${html(n.name)} = ${Array.isArray(n.value) ? vec(n.value) : typeof n.value === "number" ? n.value.toFixed(4) : html(n.value)}`);
+      const children = ray.children.filter((c) => c.kind === t.term);
+      if (!(t.added.some((c) => c !== 0) || notes.length || children.length)) continue;
+      const own = t.added.some((c) => c !== 0) || !children.length ? `adds ${vec(t.added)}` : "adds nothing itself";
+      const through = children.length ? `; its ${children.length > 1 ? `${children.length} rays carry` : "ray carries"} ${vec(children.map(carried).reduce((a, v) => a.map((c, i) => c + v[i])))}` : "";
+      lines.push(`${pad}  <b>${html(t.term)}</b>: ${own}${through}${notes.length ? "  [" + notes.join("; ") + "]" : ""}`);
+      for (const c of children) { spawned.add(c); walk(c, depth + 2); }
     }
-    for (const c of ray.children) walk(c, depth + 2);
+    for (const c of ray.children) if (!spawned.has(c)) walk(c, depth + 2);
   };
   for (const r of doc.rays) walk(r, 0);
   lines.push("", "totals (linear RGB, the --aov values at this pixel):");
-  for (const [name, v] of Object.entries(doc.terms)) lines.push(`  ${name.padEnd(12)} ${vec(v)}`);
+  for (const [name, v] of Object.entries(doc.terms)) lines.push(`  ${html(name.padEnd(12))} ${vec(v)}`);
   lines.push(`  ${"beauty".padEnd(12)} ${vec(doc.beauty)}`);
   return lines.join("\n");
 }
+
+// A material named in the inspector leads to its sliders.
+$("inspector").addEventListener("click", (e) => {
+  const link = e.target.closest("[data-material-link]");
+  if (!link) return;
+  e.preventDefault();
+  const set = document.querySelector(`fieldset[data-material="${link.dataset.materialLink}"]`);
+  if (!set) return;
+  set.closest("details").open = true;
+  set.scrollIntoView({ block: "center" });
+  set.classList.add("flash");
+  setTimeout(() => set.classList.remove("flash"), 1200);
+});
 
 // --- panels -----------------------------------------------------------------------------
 let pending = false;
@@ -423,22 +555,30 @@ $("save").onclick = async () => {
 let typing = null;
 let sourceBusy = false;
 
+let loadedText = null; // the text the engine has loaded (or shows), edits of the sliders in
+
+// Whether the editor holds typing the engine has not loaded (a pause pending, or an error).
+const unloadedTyping = () => typing !== null || (loadedText !== null && $("source").value !== loadedText);
+
 function showSource() {
-  engine.sceneText(state).then(({ ok, text }) => { if (ok) setSource(text); });
+  engine.sceneText(state).then(({ ok, text }) => {
+    if (ok && !(LOCAL && (unloadedTyping() || document.activeElement === $("source")))) setSource(text);
+  });
 }
 
 function setSource(text) {
+  loadedText = text;
   if ($("source").value === text) return;
   $("source").value = text;
   gutter();
 }
 
-// After a slider's edit, the text follows (not while the text itself is being edited).
+// After a slider's edit, the text follows (not over typing the engine has not loaded).
 let following = null;
 function sourceFollows() {
-  if (document.activeElement === $("source")) return;
+  if (LOCAL && unloadedTyping()) return;
   clearTimeout(following);
-  following = setTimeout(showSource, 150);
+  following = setTimeout(() => { following = null; showSource(); }, 150);
 }
 
 function gutter(bad = 0) {
@@ -466,7 +606,7 @@ $("source").addEventListener("input", () => {
   gutter();
   if (!LOCAL) return;
   clearTimeout(typing);
-  typing = setTimeout(() => openScene(current.name, $("source").value, current.files, { keepText: true }), 350);
+  typing = setTimeout(() => { typing = null; openScene(current.name, $("source").value, current.files, { keepText: true }); }, 350);
 });
 
 // --- scenes in the browser build ----------------------------------------------------------
@@ -489,7 +629,7 @@ async function loadShippedFiles() {
 /// the located error in the editor (the last image stays).
 function openScene(name, text, files, { keepText = false, original = null } = {}) {
   const hello = engine.load(name, text, files);
-  current = { name, files, original: original ?? current.original };
+  current = { name, files, original: original ?? current.original, from: current.from };
   if (!keepText) setSource(text);
   if (hello.error) {
     sourceError(hello.error);
@@ -497,32 +637,53 @@ function openScene(name, text, files, { keepText = false, original = null } = {}
     return false;
   }
   sourceError(null);
+  loadedText = text;
   message(hello);
   engine.send(state);
   return true;
 }
 
+/// The shipped files as a scene at `path` (from scenes/) names them: relative to its folder.
+function shippedFor(path) {
+  const dir = path.split("/").slice(0, -1);
+  const files = new Map();
+  for (const [p, bytes] of shippedFiles) {
+    const parts = p.split("/");
+    let common = 0;
+    while (common < dir.length && common < parts.length - 1 && dir[common] === parts[common]) common++;
+    files.set([...Array(dir.length - common).fill(".."), ...parts.slice(common)].join("/"), bytes);
+  }
+  return files;
+}
+
+let opening = 0; // the newest scene asked for: an older one that arrives later is dropped
+
 async function openShipped(path) {
+  const token = ++opening;
   const text = new TextDecoder().decode(await fetchBytes(`scenes/${path}`));
-  // Every shipped mesh and texture, by its path from scenes/ (a scene in a folder finds them
-  // by file name).
-  openScene(path.split("/").pop(), text, new Map(shippedFiles), { original: text });
+  if (token !== opening) return;
+  clearShareLink();
+  current.from = path;
+  openScene(path, text, shippedFor(path), { original: text });
   $("scenes").value = path;
 }
 
 /// A scene opened from the machine: the first .toml file, and the others as the files it names.
+/// A scene opened from the machine: the first .toml file, and the others as the files it names
+/// (by their file names: a scene's `meshes/knot.obj` is found as `knot.obj`). Files alone (an
+/// OBJ, a PNG) join the scene open now, which is loaded again with them.
 async function openFiles(list) {
+  const token = ++opening;
   const all = [...list];
   const scene = all.find((f) => f.name.toLowerCase().endsWith(".toml"));
-  if (!scene) { message({ type: "error", message: `no scene among ${all.map((f) => f.name).join(", ")}: open a .toml file (with the .obj and .png files it names)` }); return; }
-  const files = new Map();
+  const files = scene ? new Map() : new Map(current.files);
   for (const f of all) if (f !== scene) files.set(f.webkitRelativePath || f.name, new Uint8Array(await f.arrayBuffer()));
-  // Shipped files fill in what was not given, unless a given one has the same file name.
-  const given = new Set([...files.keys()].map((n) => n.split("/").pop()));
-  for (const [path, bytes] of shippedFiles) if (!given.has(path.split("/").pop())) files.set(path, bytes);
-  const text = await scene.text();
-  openScene(scene.name, text, files, { original: text });
-  $("scenes").value = "";
+  const text = scene ? await scene.text() : $("source").value;
+  if (token !== opening) return;
+  clearShareLink();
+  if (scene) current.from = null;
+  openScene(scene ? scene.name : current.name, text, files, scene ? { original: text } : { keepText: true });
+  if (scene) $("scenes").value = "";
 }
 
 // --- share links: the scene text in the URL's fragment (never sent to any server) -----------
@@ -539,21 +700,30 @@ async function unsqueeze(data) {
   return new Response(stream).text();
 }
 
+function clearShareLink() {
+  if (location.hash) history.replaceState(null, "", location.href.split("#")[0]);
+}
+
 $("share").onclick = async () => {
-  const link = `${location.href.split("#")[0]}#scene=${await squeeze($("source").value)}&name=${encodeURIComponent(current.name)}`;
+  // The text as it is now: the sliders' last edit in, unless the editor holds unloaded typing.
+  let text = $("source").value;
+  if (!unloadedTyping()) { const r = await engine.sceneText(state); if (r.ok) text = r.text; }
+  const from = current.from ? `&from=${encodeURIComponent(current.from)}` : "";
+  const link = `${location.href.split("#")[0]}#scene=${await squeeze(text)}&name=${encodeURIComponent(current.name)}${from}`;
   history.replaceState(null, "", link);
   // A link carries the text only: files opened from the machine are not in it.
-  const own = [...current.files.keys()].filter((f) => !shippedFiles.has(f) && $("source").value.includes(f.split("/").pop()));
+  const own = current.from ? [] : [...current.files.keys()].filter((f) => text.includes(f.split("/").pop()));
   const note = own.length ? ` — it does not carry ${own.join(", ")}: whoever opens it must open ${own.length > 1 ? "them" : "it"} too` : "";
   try { await navigator.clipboard.writeText(link); $("saved").textContent = `link copied (${link.length} characters): the scene travels in the link${note}`; } catch { $("saved").textContent = `the link is in the address bar${note}`; }
 };
 
 // --- images to download -------------------------------------------------------------------
-function downloadImage(format) {
+async function downloadImage(format) {
   if (!frame || frame.coarse) { $("saved").textContent = "wait for the full image"; return; }
   const data = layerData(selected);
-  const bytes = engine.encode(format, frame.width, frame.height, data);
-  const stem = current.name.replace(/\.toml$/i, "");
+  let bytes;
+  try { bytes = await engine.encode(format, frame.width, frame.height, data); } catch (e) { $("saved").classList.add("failed"); $("saved").textContent = String(e); return; }
+  const stem = current.name.split("/").pop().replace(/\.toml$/i, "");
   offer(bytes, `${stem}-${selected}.${format}`, format === "png" ? "image/png" : "image/x-exr");
 }
 $("png").onclick = () => downloadImage("png");
@@ -571,7 +741,10 @@ $("reset").onclick = () => {
 // --- start --------------------------------------------------------------------------------
 async function startLocal() {
   status("loading the renderer…");
-  for (const id of ["scenes", "open", "share", "png", "exr"]) $(id).hidden = false;
+  for (const id of ["scenes", "open", "share"]) $(id).hidden = false;
+  $("editor").open = true;
+  // Typing not yet saved anywhere is lost with the tab: say so before it closes.
+  window.addEventListener("beforeunload", (e) => { if ($("source").value !== current.original) e.preventDefault(); });
   $("save").hidden = true;
   $("source").readOnly = false;
   const local = await import("./local-engine.js");
@@ -590,14 +763,29 @@ async function startLocal() {
   document.addEventListener("dragleave", () => document.body.classList.remove("dropping"));
   document.addEventListener("drop", (e) => { e.preventDefault(); document.body.classList.remove("dropping"); openFiles(e.dataTransfer.files); });
   await loadShippedFiles();
+  window.addEventListener("hashchange", () => openShared().catch(() => {}));
+  if (!(await openShared())) await openShipped(params.get("scene") || "showcase.toml");
+}
+
+/// The scene of a share link (`#scene=...`), if the address has one: whether it was opened.
+async function openShared() {
   const hash = new URLSearchParams(location.hash.slice(1));
-  if (hash.has("scene")) {
-    const text = await unsqueeze(hash.get("scene"));
-    openScene(hash.get("name") || "shared.toml", text, new Map(shippedFiles), { original: text });
-    $("scenes").value = "";
-  } else {
-    await openShipped(params.get("scene") || "showcase.toml");
+  if (!hash.has("scene")) return false;
+  let text;
+  try {
+    text = await unsqueeze(hash.get("scene"));
+  } catch {
+    // (Shown where a frame does not hide it: the showcase opens instead.)
+    $("saved").classList.add("failed");
+    $("saved").textContent = "this share link is damaged (cut short when copied?): ask for it again";
+    return false;
   }
+  // A scene shared from a shipped one finds the shipped files as that one does.
+  const from = hash.get("from");
+  current.from = from && shipped.some((s) => s.path === from) ? from : null;
+  openScene(hash.get("name") || "shared.toml", text, current.from ? shippedFor(current.from) : new Map(), { original: text });
+  $("scenes").value = "";
+  return true;
 }
 
 if (LOCAL) startLocal().catch((e) => { $("error").hidden = false; $("error").textContent = `starting the renderer: ${e.message || e}`; });

@@ -45,9 +45,29 @@ export async function createLocalEngine(on, options = {}) {
   const moduleUrl = new URL(`./pkg/${name}_bg.wasm`, import.meta.url);
   const glueUrl = new URL(`./pkg/${name}.js`, import.meta.url).href;
   const module = await compile(moduleUrl);
-  const glue = await import(glueUrl);
-  await glue.default({ module_or_path: module });
-  const main = new glue.Engine();
+  // The page's own instance. A trap leaves an instance unusable, and a module's glue starts
+  // once: a new instance comes from the glue imported again under another address.
+  let glue = null, main = null, instances = 0;
+  async function instantiate() {
+    glue = await import(instances++ ? `${glueUrl}?instance=${instances}` : glueUrl);
+    await glue.default({ module_or_path: module });
+    main = new glue.Engine();
+  }
+  await instantiate();
+  let restarting = null;
+  /// Runs `f(main)`: its value, or throws the engine's error (a string); after a trap, says
+  /// what the panic was and makes a new instance (with the scene loaded again).
+  function call(f) {
+    try {
+      return f(main);
+    } catch (e) {
+      if (typeof e === "string") throw e;
+      let why = String(e && e.message || e);
+      try { why = glue.last_panic() || why; } catch { /* gone */ }
+      restarting = instantiate().then(() => { if (scene) main.load(scene.name, scene.source, scene.index, scene.blob); }).catch(() => {}).finally(() => { restarting = null; });
+      throw `the renderer failed (a bug, please report it): ${why}; it has been restarted`;
+    }
+  }
   const count = Math.max(1, Math.min(16, options.workers ?? navigator.hardwareConcurrency ?? 2));
 
   let scene = null;   // { key, name, source, index, blob, width, height }
@@ -56,8 +76,9 @@ export async function createLocalEngine(on, options = {}) {
   let generation = 0;
 
   const workers = [];
+  const failures = new Array(count).fill(0); // each slot's fatal failures in a row
   function spawn(i) {
-    const w = { worker: new Worker(new URL("./render-worker.js", import.meta.url), { type: "module" }), ready: false, busy: false, key: null, index: i };
+    const w = { worker: new Worker(new URL("./render-worker.js", import.meta.url), { type: "module" }), ready: false, busy: false, key: null, index: i, dead: false };
     w.worker.onmessage = (e) => received(w, e.data);
     w.worker.onerror = (e) => on.message({ type: "error", message: `render worker: ${e.message}` });
     w.worker.postMessage({ type: "init", glue: glueUrl, module });
@@ -68,16 +89,28 @@ export async function createLocalEngine(on, options = {}) {
   function received(w, m) {
     if (m.type === "ready") { w.ready = true; return pump(); }
     if (m.type === "loaded") return;
-    w.busy = false;
     if (m.type === "failed") {
-      if (m.fatal) { w.worker.terminate(); spawn(w.index); }
-      if (job && m.job && m.job.generation === job.generation) {
+      // A failed load: the worker has no scene (its render, queued behind, fails too).
+      if (m.kind === "load") w.key = null;
+      else w.busy = false;
+      const current = job && m.job && m.job.generation === job.generation;
+      if (m.fatal) {
+        w.worker.terminate();
+        w.dead = true;
+        failures[w.index] += 1;
+        if (failures[w.index] <= 2) spawn(w.index);
+        else on.message({ type: "error", message: `render worker ${w.index + 1} keeps failing (${m.message}); rendering on the others` });
+        // Its band goes back to its share.
+        if (current && m.kind === "render") job.phases[m.job.phase].shares[w.index].unshift(m.job.band);
+      } else if (current) {
         on.message({ type: "error", message: m.message });
         job = null;
       }
       return pump();
     }
     if (m.type !== "rendered") return;
+    w.busy = false;
+    failures[w.index] = 0;
     if (job && m.job.generation === job.generation) place(job.phases[m.job.phase], m);
     pump();
   }
@@ -91,6 +124,11 @@ export async function createLocalEngine(on, options = {}) {
 
   function place(p, m) {
     const h = m.header;
+    if (h.width !== p.width || h.height !== p.height || h.bands.length !== 1 || h.bands[0] !== m.job.band || h.rows !== Math.min(TILE, p.height - m.job.band * TILE)) {
+      on.message({ type: "error", message: `a render worker sent band ${h.bands} (${h.width}x${h.rows}) where band ${m.job.band} of ${p.width}x${p.height} was asked` });
+      job = null;
+      return;
+    }
     if (!p.layers) p.layers = h.layers.map((name) => ({ name, data: new Float32Array(p.width * p.height * 3) }));
     const span = h.rows * h.width * 3;
     h.layers.forEach((_, l) => {
@@ -102,7 +140,7 @@ export async function createLocalEngine(on, options = {}) {
     const done = job.phases.reduce((n, q) => n + q.got, 0), total = job.phases.reduce((n, q) => n + q.bands, 0);
     on.message({ type: "progress", done, total });
     if (p.got === p.bands) {
-      on.frame({ width: p.width, height: p.height, coarse: p.coarse, layers: p.layers, generation: job.generation, seconds: (performance.now() - job.start) / 1000, rays: p.rays });
+      on.frame({ width: p.width, height: p.height, coarse: p.coarse, layers: p.layers, generation: job.generation, key: job.key, seconds: (performance.now() - job.start) / 1000, rays: p.rays });
       if (!p.coarse) job = null;
     }
   }
@@ -112,6 +150,7 @@ export async function createLocalEngine(on, options = {}) {
   function next(i) {
     for (const [k, p] of job.phases.entries()) {
       if (p.shares[i].length) return { phase: k, band: p.shares[i].shift() };
+      // (A dead slot's share is taken this way too.)
       const fullest = p.shares.reduce((a, s) => (s.length > a.length ? s : a), []);
       if (fullest.length) return { phase: k, band: fullest.pop() };
     }
@@ -121,7 +160,7 @@ export async function createLocalEngine(on, options = {}) {
   function pump() {
     if (!job || !scene) return;
     for (const [i, w] of workers.entries()) {
-      if (!w.ready || w.busy) continue;
+      if (!w.ready || w.busy || w.dead) continue;
       if (w.key !== scene.key) {
         w.worker.postMessage({ type: "load", key: scene.key, name: scene.name, source: scene.source, index: scene.index, blob: scene.blob });
         w.key = scene.key;
@@ -130,7 +169,7 @@ export async function createLocalEngine(on, options = {}) {
       if (!n) continue;
       const p = job.phases[n.phase];
       w.busy = true;
-      w.worker.postMessage({ type: "render", key: scene.key, state: job.state, coarse: p.coarse, part: n.band, parts: p.bands, job: { generation: job.generation, phase: n.phase } });
+      w.worker.postMessage({ type: "render", key: scene.key, state: job.state, coarse: p.coarse, part: n.band, parts: p.bands, job: { generation: job.generation, phase: n.phase, band: n.band } });
     }
   }
 
@@ -139,31 +178,37 @@ export async function createLocalEngine(on, options = {}) {
   return {
     simd,
     workers: count,
+    /// Counts the scenes loaded: a frame's `key` says which it shows.
+    get key() { return scene ? scene.key : 0; },
     /// Loads a scene: its hello, or { error: { file, line, column, message } }; the previous
     /// scene stays when this one fails.
     load(name, source, files) {
       const { index, blob } = pack(files);
       let hello;
-      try { hello = JSON.parse(main.load(name, source, index, blob)); } catch (e) { return { error: errorOf(e) }; }
+      try { hello = JSON.parse(call((e) => e.load(name, source, index, blob))); } catch (e) { return { error: errorOf(e) }; }
       scene = { key: ++keys, name, source, index, blob, width: hello.width, height: hello.height };
       job = null;
       return hello;
     },
-    /// Renders `state`: the coarse image first, then the full one; cancels the render before.
-    send(state) {
+    /// Renders `state`: the coarse image first (unless `coarse` is false), then the full one;
+    /// cancels the render before.
+    send(state, { coarse = true } = {}) {
       if (!scene) return;
       const w = scene.width, h = scene.height;
-      const phases = [phase(true, Math.max(1, Math.floor(w / 4)), Math.max(1, Math.floor(h / 4))), phase(false, w, h)];
-      job = { generation: ++generation, state: JSON.stringify(state), start: performance.now(), phases };
+      const phases = [phase(false, w, h)];
+      if (coarse) phases.unshift(phase(true, Math.max(1, Math.floor(w / 4)), Math.max(1, Math.floor(h / 4))));
+      job = { generation: ++generation, key: scene.key, state: JSON.stringify(state), start: performance.now(), phases };
       pump();
     },
     async explain(state, x, y) {
-      try { return { ok: true, text: main.explain(JSON.stringify(state), x, y) }; } catch (e) { return { ok: false, text: String(e) }; }
+      if (restarting) await restarting;
+      try { return { ok: true, text: call((e) => e.explain(JSON.stringify(state), x, y)) }; } catch (e) { return { ok: false, text: String(e) }; }
     },
     async sceneText(state) {
-      try { return { ok: true, text: main.edited(JSON.stringify(state)) }; } catch (e) { return { ok: false, text: String(e) }; }
+      if (restarting) await restarting;
+      try { return { ok: true, text: call((e) => e.edited(JSON.stringify(state))) }; } catch (e) { return { ok: false, text: String(e) }; }
     },
     /// A linear image as a file's bytes: "png" or "exr", the bytes `lancer render` writes.
-    encode(format, width, height, floats) { return glue.Engine.encode(format, width, height, floats); },
+    encode(format, width, height, floats) { return call(() => glue.Engine.encode(format, width, height, floats)); },
   };
 }

@@ -4,6 +4,7 @@
 // is back). Its bands are the page's interleaved share, exactly `lancer render --tile I/N`'s.
 "use strict";
 
+let glue = null;
 let engine = null;
 let loaded = null; // the key of the scene loaded
 
@@ -11,7 +12,7 @@ self.onmessage = async (e) => {
   const m = e.data;
   try {
     if (m.type === "init") {
-      const glue = await import(m.glue);
+      glue = await import(m.glue);
       await glue.default({ module_or_path: m.module });
       engine = new glue.Engine();
       self.postMessage({ type: "ready" });
@@ -29,8 +30,12 @@ self.onmessage = async (e) => {
       self.postMessage({ type: "rendered", job: m.job, header, floats, ms: performance.now() - start }, [floats.buffer]);
     }
   } catch (err) {
-    // A trap (a bug in the engine) leaves the instance unusable: the page replaces the worker.
-    const message = typeof err === "string" ? err : String(err && err.message || err);
-    self.postMessage({ type: "failed", job: m.job, key: m.key, message, fatal: err instanceof WebAssembly.RuntimeError });
+    // The engine's own errors are strings; anything else (a trap: a panic, memory exhausted, a
+    // stack overflow; or an instance left unusable by one) is fatal: the page replaces the
+    // worker. A panic's message is kept by the engine.
+    const fatal = typeof err !== "string";
+    let message = fatal ? String(err && err.message || err) : err;
+    if (fatal && glue) { try { message = glue.last_panic() || message; } catch { /* the instance is gone */ } }
+    self.postMessage({ type: "failed", job: m.job, key: m.key, kind: m.type, message, fatal });
   }
 };

@@ -23,6 +23,7 @@ pub const SPEC: TermSpec = TermSpec {
     summary: "diff · (N·w) · Col_Ω · Col_L: Lambert's matte reflection",
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Lambert)),
+    mistake: None,
 };
 
 struct Lambert;

@@ -24,6 +24,7 @@ pub const SPEC: TermSpec = TermSpec {
     summary: "spec · Col(R_r): recursive mirror reflection weighted by spec",
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Mirror)),
+    mistake: None,
 };
 
 struct Mirror;

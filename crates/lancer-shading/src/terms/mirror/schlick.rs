@@ -31,6 +31,7 @@ pub const SPEC: TermSpec = TermSpec {
         let f0 = p.number("f0", -1.0, 0.0, 1.0)?;
         Ok(Box::new(Schlick { f0: (f0 >= 0.0).then_some(f0 as f32) }))
     },
+    mistake: None,
 };
 
 struct Schlick {

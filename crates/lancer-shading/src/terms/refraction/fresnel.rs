@@ -33,6 +33,7 @@ pub const SPEC: TermSpec = TermSpec {
         doc: "distance over which the glass filters light by its colour once (0: no absorption)",
     }],
     build: |p: &mut Params| Ok(Box::new(Fresnel { absorb: p.number("absorb", 0.0, 0.0, 1e9)? as f32 })),
+    mistake: None,
 };
 
 struct Fresnel {

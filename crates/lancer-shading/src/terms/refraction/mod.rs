@@ -5,9 +5,17 @@
 //! |---|---|
 //! | `seed` (default, the handout's) | `alpha` |
 //! | `fresnel` | `alpha · (1 − R_in)(1 − R_out)` (+ a reflected ray `alpha · R_in`), optional Beer–Lambert |
+//!
+//! Classic mistakes of the course, kept as variants to show them (`lancer terms --mistakes`):
+//! `sign-trap` (`VctTransmis` given the outward normal on entry), `inverted-index` (`n` where
+//! `1/n` belongs, and `1/n` where `n` does) and `no-exit-bend` (the ray leaves at `J` along
+//! `u_t`).
 
 pub mod fresnel;
+pub mod inverted_index;
+pub mod no_exit_bend;
 pub mod seed;
+pub mod sign_trap;
 
 use glam::Vec3;
 use lancer_core::optics::{reflect, vct_transmis};

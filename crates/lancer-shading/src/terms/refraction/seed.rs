@@ -32,6 +32,7 @@ pub const SPEC: TermSpec = TermSpec {
     summary: "alpha · Col(R_t): the handout's refraction through the object, weighted by alpha",
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Refraction)),
+    mistake: None,
 };
 
 struct Refraction;

@@ -22,6 +22,7 @@ pub const SPEC: TermSpec = TermSpec {
     summary: "spec · shine · (N·h)^e · Col_L: Blinn-Phong's half-vector highlight",
     params: &[EXPONENT],
     build: |p: &mut Params| Ok(Box::new(Blinn { exponent: read_exponent(p)? })),
+    mistake: None,
 };
 
 struct Blinn {

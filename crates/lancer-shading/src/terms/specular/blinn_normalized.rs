@@ -25,6 +25,7 @@ pub const SPEC: TermSpec = TermSpec {
     summary: "spec · (e+8)/(8π) · (N·h)^e · (N·w) · Col_L: energy-normalised Blinn-Phong",
     params: &[EXPONENT],
     build: |p: &mut Params| Ok(Box::new(BlinnNormalized { exponent: read_exponent(p)? })),
+    mistake: None,
 };
 
 struct BlinnNormalized {

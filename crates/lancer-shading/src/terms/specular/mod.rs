@@ -5,10 +5,16 @@
 //! | `phong` (default, the handout's) | `(−u·w_r)^(1/(1−shine))` | `spec · shine` |
 //! | `blinn` | `(N·h)^e`, `h = normalize(w − u)` | `spec · shine` |
 //! | `blinn-normalized` | `(e + 8)/(8π) · (N·h)^e · (N·w)` | `spec` |
+//!
+//! Classic mistakes of the course, kept as variants to show them (`lancer terms --mistakes`):
+//! `exponent-shine` (the exponent `shine` instead of `1/(1−shine)`) and `sign`
+//! (`max(u·w_r, 0)` instead of `max(−u·w_r, 0)`).
 
 pub mod blinn;
 pub mod blinn_normalized;
+pub mod exponent_shine;
 pub mod phong;
+pub mod sign;
 
 use glam::Vec3;
 

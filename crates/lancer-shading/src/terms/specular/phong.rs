@@ -27,6 +27,7 @@ pub const SPEC: TermSpec = TermSpec {
     summary: "spec · shine · (−u·w_r)^(1/(1−shine)) · Col_L: the handout's Phong highlight",
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Phong)),
+    mistake: None,
 };
 
 struct Phong;
