@@ -61,7 +61,10 @@ impl Driver {
                 return Ok(v);
             }
             if start.elapsed() > limit {
-                let error = self.js("return document.getElementById('error').textContent", json!([]))?;
+                let error = self.js(
+                    "const e = document.getElementById('error'); return e && !e.hidden ? e.textContent : 'none shown'",
+                    json!([]),
+                )?;
                 bail!("waited {} s for {what} (page error: {error})", limit.as_secs());
             }
             std::thread::sleep(Duration::from_millis(50));

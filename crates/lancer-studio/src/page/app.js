@@ -6,6 +6,10 @@
 "use strict";
 
 const $ = (id) => document.getElementById(id);
+// What the page's content security policy refused (none, unless something reached for another
+// host): the browser check reads it.
+const violations = [];
+document.addEventListener("securitypolicyviolation", (e) => violations.push(`${e.violatedDirective}: ${e.blockedURI}`));
 window.addEventListener("error", (e) => { $("error").hidden = false; $("error").textContent = `page error: ${e.message}`; });
 let registry = null;
 let state = null;
@@ -163,6 +167,7 @@ const studio = window.studio = {
   },
   // The last file offered for download: its name and bytes as base64.
   lastDownload: null,
+  violations: () => violations,
   engineInfo: () => engine && { local: LOCAL, simd: !!engine.simd, workers: engine.workers || 0, key: engine.key || 0 },
   pixel(name, x, y) {
     const data = frame && layerData(name);
@@ -259,9 +264,10 @@ function draw() {
   const room = document.fullscreenElement === stage
     ? Math.min(stage.clientWidth / width, stage.clientHeight / height)
     : Math.min(stage.clientWidth / width, (window.innerHeight * 0.7) / height);
-  // (Fit keeps square pixels: whole screen pixels per image pixel once the image is enlarged.)
-  const fitted = room >= 1 ? Math.floor(room) : Math.max(0.1, room);
+  // Fit fills the room, smoothly scaled; the whole zooms show square pixels.
+  const fitted = Math.max(0.1, room);
   const zoom = (fit ? fitted : parseFloat($("zoom").value)) * (frame.coarse ? width / frame.width : 1);
+  canvas.style.imageRendering = fit && !Number.isInteger(fitted) && !frame.coarse ? "auto" : "pixelated";
   canvas.style.width = `${frame.width * zoom}px`;
   canvas.style.height = `${frame.height * zoom}px`;
   $("showing").textContent = `showing ${selected}${useSnap ? " (snapshot left of the wipe)" : ""}${frame.coarse ? " — coarse, the full image follows" : ""}`;
