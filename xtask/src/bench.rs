@@ -196,13 +196,29 @@ fn check_quiet(when: &str) -> Option<f64> {
 /// `cargo xtask bench [--runs N]`: prints the tables and the targets, and writes them as JSON to
 /// `target/bench/bench.json`.
 pub fn run(args: &[String]) -> Result<()> {
-    let TaskArgs { options, filter } = parse_common(args, &["runs"])?;
+    let TaskArgs { options, filter } = parse_common(args, &["runs", "only"])?;
     if let Some(f) = filter {
         bail!("unexpected argument `{f}`");
     }
     let runs: usize =
         options.iter().find(|(k, _)| k == "runs").map_or(Ok(5), |(_, v)| v.parse()).context("--runs needs a number")?;
+    let only = options.iter().find(|(k, _)| k == "only").map(|(_, v)| v.as_str());
     let lancer = build_renderer()?;
+    if let Some(only) = only {
+        if only != "web" {
+            bail!("--only takes `web` (the browser build against native renders of the anchor)");
+        }
+        let anchor = root().join("scenes/bench/anchor.toml");
+        let one = median_run(&lancer, &anchor, 1, runs, &[])?.secs;
+        let two = median_run(&lancer, &anchor, 2, runs, &[])?.secs;
+        let (mut json, mut targets) = (serde_json::Map::new(), Vec::new());
+        web_rows(runs, one, two, &mut json, &mut targets);
+        print_targets(&targets);
+        let dir = root().join("target/bench");
+        std::fs::create_dir_all(&dir)?;
+        std::fs::write(dir.join("bench-web.json"), serde_json::to_string_pretty(&serde_json::Value::Object(json))?)?;
+        return Ok(());
+    }
     let busy_before = check_quiet("before");
     let anchor = root().join("scenes/bench/anchor.toml");
     let pov = root().join("scenes/bench/anchor.pov");
@@ -531,67 +547,9 @@ pub fn run(args: &[String]) -> Result<()> {
     }
     json.insert("meshes_vs_povray".into(), mesh_pov_rows.into());
 
-    // The browser build, in headless Chromium, against the native renders above.
-    println!("\nIn the browser: target/web (cargo xtask web) in headless Chromium, anchor 1280x720, median of {runs}");
-    match crate::web_check::measure(runs) {
-        Ok(w) => {
-            let native = [one.secs, two.secs];
-            let mut rows = Vec::new();
-            println!("{:<8} {:>10} {:>11} {:>16}", "workers", "wasm (s)", "native (s)", "wasm / native");
-            for (k, &(workers, secs)) in w.anchor.iter().enumerate() {
-                let ratio = secs / native[k];
-                println!("{workers:<8} {secs:>10.3} {:>11.3} {ratio:>15.2}x", native[k]);
-                rows.push(
-                    serde_json::json!({ "workers": workers, "wasm_s": secs, "native_s": native[k], "ratio": ratio }),
-                );
-            }
-            let (coarse, full) = w.latency;
-            println!(
-                "slider to image at 640x360 on 2 workers: coarse {coarse:.0} ms, full {full:.0} ms (module {})",
-                if w.simd { "with SIMD" } else { "without SIMD" }
-            );
-            json.insert(
-                "wasm".into(),
-                serde_json::json!({ "anchor": rows, "latency_coarse_ms": coarse, "latency_full_ms": full, "simd": w.simd }),
-            );
-            if let Some(&(_, secs)) = w.anchor.first() {
-                targets.push(Target {
-                    what: "anchor in the browser, 1 worker / native 1 thread",
-                    measured: secs / one.secs,
-                    bound: 2.0,
-                    at_most: true,
-                });
-            }
-            targets.push(Target {
-                what: "browser slider to coarse image, 640x360, 2 workers (ms)",
-                measured: coarse,
-                bound: 100.0,
-                at_most: true,
-            });
-            targets.push(Target {
-                what: "browser slider to full image, 640x360, 2 workers (ms)",
-                measured: full,
-                bound: 500.0,
-                at_most: true,
-            });
-        }
-        Err(e) => {
-            println!("  not measured: {e:#}");
-            json.insert("wasm".into(), serde_json::json!({ "not_measured": format!("{e:#}") }));
-        }
-    }
+    web_rows(runs, one.secs, two.secs, &mut json, &mut targets);
 
-    println!("\nTargets");
-    for t in &targets {
-        println!(
-            "  {:<60} {:>9.2} {} {:<6} {}",
-            t.what,
-            t.measured,
-            if t.at_most { "<=" } else { ">=" },
-            t.bound,
-            if t.met() { "met" } else { "NOT MET" }
-        );
-    }
+    print_targets(&targets);
     let rows: Vec<serde_json::Value> = targets
         .iter()
         .map(|t| serde_json::json!({ "what": t.what, "measured": t.measured, "bound": t.bound, "at_most": t.at_most, "met": t.met() }))
@@ -622,5 +580,79 @@ mod tests {
         // Nothing read: no share.
         assert_eq!(busy_between("", second), None);
         assert_eq!(busy_between("intr 5\n", second), None);
+    }
+}
+
+/// The browser build (target/web) in headless Chromium against the native anchor renders
+/// (`one` and `two`: the native render times on 1 and 2 threads): rows, JSON under `wasm`, and
+/// the targets; says why when it cannot be measured.
+fn web_rows(
+    runs: usize,
+    one: f64,
+    two: f64,
+    json: &mut serde_json::Map<String, serde_json::Value>,
+    targets: &mut Vec<Target>,
+) {
+    println!("\nIn the browser: target/web (cargo xtask web) in headless Chromium, anchor 1280x720, median of {runs}");
+    match crate::web_check::measure(runs) {
+        Ok(w) => {
+            let native = [one, two];
+            let mut rows = Vec::new();
+            println!("{:<8} {:>10} {:>11} {:>16}", "workers", "wasm (s)", "native (s)", "wasm / native");
+            for (k, &(workers, secs)) in w.anchor.iter().enumerate() {
+                let ratio = secs / native[k];
+                println!("{workers:<8} {secs:>10.3} {:>11.3} {ratio:>15.2}x", native[k]);
+                rows.push(
+                    serde_json::json!({ "workers": workers, "wasm_s": secs, "native_s": native[k], "ratio": ratio }),
+                );
+            }
+            let (coarse, full) = w.latency;
+            println!(
+                "slider to image at 640x360 on 2 workers: coarse {coarse:.0} ms, full {full:.0} ms (module {})",
+                if w.simd { "with SIMD" } else { "without SIMD" }
+            );
+            json.insert(
+                "wasm".into(),
+                serde_json::json!({ "anchor": rows, "latency_coarse_ms": coarse, "latency_full_ms": full, "simd": w.simd }),
+            );
+            if let Some(&(_, secs)) = w.anchor.first() {
+                targets.push(Target {
+                    what: "anchor in the browser, 1 worker / native 1 thread",
+                    measured: secs / one,
+                    bound: 2.0,
+                    at_most: true,
+                });
+            }
+            targets.push(Target {
+                what: "browser slider to coarse image, 640x360, 2 workers (ms)",
+                measured: coarse,
+                bound: 100.0,
+                at_most: true,
+            });
+            targets.push(Target {
+                what: "browser slider to full image, 640x360, 2 workers (ms)",
+                measured: full,
+                bound: 500.0,
+                at_most: true,
+            });
+        }
+        Err(e) => {
+            println!("  not measured: {e:#}");
+            json.insert("wasm".into(), serde_json::json!({ "not_measured": format!("{e:#}") }));
+        }
+    }
+}
+
+fn print_targets(targets: &[Target]) {
+    println!("\nTargets");
+    for t in targets {
+        println!(
+            "  {:<60} {:>9.2} {} {:<6} {}",
+            t.what,
+            t.measured,
+            if t.at_most { "<=" } else { ">=" },
+            t.bound,
+            if t.met() { "met" } else { "NOT MET" }
+        );
     }
 }

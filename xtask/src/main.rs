@@ -19,7 +19,7 @@ use anyhow::{Context, Result, bail};
 const USAGE: &str = "usage: cargo xtask <task> [options]
 
 tasks:
-  bench [--runs N]
+  bench [--runs N] [--only web]
             Lancer against POV-Ray 3.7 (when installed) on scenes/bench/anchor, 1 and 2 threads;
             and render cost against the number of objects
   compare [--width W] [--min-psnr DB] SCENE... [-- LANCER FLAGS]
