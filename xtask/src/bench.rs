@@ -566,23 +566,6 @@ pub fn run(args: &[String]) -> Result<()> {
     Ok(())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::busy_between;
-
-    #[test]
-    fn the_busy_share_counts_idle_and_iowait_as_idle() {
-        let first = "cpu  100 0 50 800 50 0 0 0 0 0\ncpu0 50 0 25 400 25 0 0 0 0 0\n";
-        // 100 more ticks: 30 user, 10 system, 50 idle, 10 iowait.
-        let second = "cpu  130 0 60 850 60 0 0 0 0 0\ncpu0 65 0 30 425 30 0 0 0 0 0\n";
-        let busy = busy_between(first, second).unwrap();
-        assert!((busy - 0.4).abs() < 1e-12, "{busy}");
-        // Nothing read: no share.
-        assert_eq!(busy_between("", second), None);
-        assert_eq!(busy_between("intr 5\n", second), None);
-    }
-}
-
 /// The browser build (target/web) in headless Chromium against the native anchor renders
 /// (`one` and `two`: the native render times on 1 and 2 threads): rows, JSON under `wasm`, and
 /// the targets; says why when it cannot be measured.
@@ -654,5 +637,22 @@ fn print_targets(targets: &[Target]) {
             t.bound,
             if t.met() { "met" } else { "NOT MET" }
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::busy_between;
+
+    #[test]
+    fn the_busy_share_counts_idle_and_iowait_as_idle() {
+        let first = "cpu  100 0 50 800 50 0 0 0 0 0\ncpu0 50 0 25 400 25 0 0 0 0 0\n";
+        // 100 more ticks: 30 user, 10 system, 50 idle, 10 iowait.
+        let second = "cpu  130 0 60 850 60 0 0 0 0 0\ncpu0 65 0 30 425 30 0 0 0 0 0\n";
+        let busy = busy_between(first, second).unwrap();
+        assert!((busy - 0.4).abs() < 1e-12, "{busy}");
+        // Nothing read: no share.
+        assert_eq!(busy_between("", second), None);
+        assert_eq!(busy_between("intr 5\n", second), None);
     }
 }
