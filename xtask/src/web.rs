@@ -14,6 +14,9 @@ use serde_json::json;
 
 use crate::root;
 
+/// The file that marks a folder as this task's output.
+const MARKER: &str = ".lancer-web";
+
 /// The most the compressed module may weigh (gzip, as a web server sends it).
 const BUDGET: usize = 4 << 20;
 
@@ -182,10 +185,18 @@ pub fn build(args: &[String]) -> Result<()> {
             other => bail!("unknown option `{other}` (cargo xtask web [--out DIR])"),
         }
     }
+    // Only a folder this task wrote (it leaves a marker; `target/web` is its own) or an empty one
+    // is emptied: `--out ~` must not wipe a home folder.
     if out.exists() {
+        let empty = std::fs::read_dir(&out).map(|mut d| d.next().is_none()).unwrap_or(false);
+        let ours = out.join(MARKER).is_file() || out == root().join("target/web");
+        if !empty && !ours {
+            bail!("{} is not empty and was not written by `cargo xtask web`: give another --out", out.display());
+        }
         std::fs::remove_dir_all(&out).with_context(|| format!("emptying {}", out.display()))?;
     }
     std::fs::create_dir_all(&out)?;
+    std::fs::write(out.join(MARKER), "written by cargo xtask web: the folder is emptied by the next build\n")?;
     build_modules(&out)?;
     let page = root().join("crates/lancer-studio/src/page");
     for f in PAGE_FILES {
