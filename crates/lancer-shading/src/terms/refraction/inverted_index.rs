@@ -75,15 +75,9 @@ impl Term for InvertedIndex {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
-        for lane in chunk.hit_lanes() {
-            let m = ctx.material(chunk.hits, lane);
-            if m.alpha <= 0.0 || !out.can_spawn(lane) {
-                continue;
-            }
-            if let Some((_, from, dir)) = inverted(ctx, &ctx.hit(chunk.hits, lane), chunk.rays.dir.at(lane), m.n) {
-                out.spawn(lane, from, dir, Vec3::splat(m.alpha));
-            }
-        }
+        super::spawn_along(ctx, chunk, out, |ctx, hit, u, n| {
+            inverted(ctx, hit, u, n).map(|(_, from, dir)| (from, dir))
+        });
     }
 }
 

@@ -21,7 +21,7 @@ use glam::Vec3;
 use lancer_core::optics::{reflect, vct_transmis};
 use lancer_shapes::{Hit, Origin};
 
-use crate::{Note, ShadeContext};
+use crate::{Chunk, Note, ShadeContext, TermOutput};
 
 /// A ray's way through a transparent object: where it comes out, how long it was inside.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -122,6 +122,25 @@ pub fn passage_notes(ctx: &ShadeContext<'_>, hit: &Hit, u: Vec3, n: f32) -> Vec<
         None => notes.push(Note::text("R_t", "never leaves (trapped, or no exit found): brings nothing")),
     }
     notes
+}
+
+/// The run of a refraction variant that sends one ray per transparent hit along `path` (the
+/// mistakes of the catalogue): weight `alpha`, lane by lane.
+pub(crate) fn spawn_along(
+    ctx: &ShadeContext<'_>,
+    chunk: Chunk<'_>,
+    out: &mut TermOutput<'_>,
+    path: impl Fn(&ShadeContext<'_>, &Hit, Vec3, f32) -> Option<(Origin, Vec3)>,
+) {
+    for lane in chunk.hit_lanes() {
+        let m = ctx.material(chunk.hits, lane);
+        if m.alpha <= 0.0 || !out.can_spawn(lane) {
+            continue;
+        }
+        if let Some((from, dir)) = path(ctx, &ctx.hit(chunk.hits, lane), chunk.rays.dir.at(lane), m.n) {
+            out.spawn(lane, from, dir, Vec3::splat(m.alpha));
+        }
+    }
 }
 
 /// Where the rays of eight lanes that all hit one sphere with a world-space form from outside

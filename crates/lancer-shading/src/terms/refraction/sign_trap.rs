@@ -78,15 +78,7 @@ impl Term for SignTrap {
     }
 
     fn run(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, out: &mut TermOutput<'_>) {
-        for lane in chunk.hit_lanes() {
-            let m = ctx.material(chunk.hits, lane);
-            if m.alpha <= 0.0 || !out.can_spawn(lane) {
-                continue;
-            }
-            if let Some((from, dir)) = trapped(ctx, &ctx.hit(chunk.hits, lane), chunk.rays.dir.at(lane), m.n) {
-                out.spawn(lane, from, dir, Vec3::splat(m.alpha));
-            }
-        }
+        super::spawn_along(ctx, chunk, out, trapped);
     }
 }
 
