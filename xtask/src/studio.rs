@@ -12,16 +12,11 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use serde_json::{Value, json};
 
-use crate::webdriver::{Driver, Killed};
+use crate::webdriver::{Driver, Killed, SET};
 use crate::{build_renderer, root, which};
 
 /// The generation of the newest full frame, once it is newer than `after`.
 const FULL_AFTER: &str = "const f = window.studio && window.studio.frame(); return f && !f.coarse && f.generation > arguments[0] ? f.generation : null;";
-
-/// Changes the input matching `selector` to `value` as a user would (an input event).
-const SET: &str = "const e = document.querySelector(arguments[0]); if (!e) return 'no ' + arguments[0]; \
-    if (e.type === 'checkbox') e.checked = arguments[1]; else e.value = arguments[1]; \
-    window.studio.editAt = performance.now(); e.dispatchEvent(new Event('input')); return true;";
 
 pub fn check(args: &[String]) -> Result<()> {
     let mut screenshot = root().join("docs/studio.png");

@@ -15,7 +15,7 @@ use anyhow::{Context, Result, bail};
 use lancer_studio::session::Session;
 use serde_json::{Value, json};
 
-use crate::webdriver::Driver;
+use crate::webdriver::{Driver, SET};
 use crate::{root, which};
 
 /// Serves the files under `dir` on `127.0.0.1` (GET only; no path outside `dir`), on a thread,
@@ -151,10 +151,6 @@ fn compare(d: &Driver, what: &str, n: &Native) -> Result<()> {
     }
     Ok(())
 }
-
-const SET: &str = "const e = document.querySelector(arguments[0]); if (!e) return 'no ' + arguments[0]; \
-    if (e.type === 'checkbox') e.checked = arguments[1]; else e.value = arguments[1]; \
-    window.studio.editAt = performance.now(); e.dispatchEvent(new Event('input')); return true;";
 
 /// The scene loads counted by the page's engine, and the newest full frame: `(key, generation)`.
 fn shown(d: &Driver) -> Result<(i64, i64, bool)> {

@@ -76,6 +76,12 @@ pub fn free_port() -> Result<u16> {
     Ok(std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port())
 }
 
+/// Changes the input matching `arguments[0]` to `arguments[1]` as a user would (an input
+/// event), noting when in `window.studio.editAt`: the studio page's edits, in both checks.
+pub const SET: &str = "const e = document.querySelector(arguments[0]); if (!e) return 'no ' + arguments[0]; \
+    if (e.type === 'checkbox') e.checked = arguments[1]; else e.value = arguments[1]; \
+    window.studio.editAt = performance.now(); e.dispatchEvent(new Event('input')); return true;";
+
 /// Starts chromedriver and a headless Chromium session whose window is `size`; the driver is
 /// stopped when the second value is dropped (after the session is deleted).
 pub fn start(chromedriver: PathBuf, size: (u32, u32)) -> Result<(Driver, Killed)> {
