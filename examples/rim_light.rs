@@ -24,6 +24,7 @@ const RIM: TermSpec = TermSpec {
     name: "rim",
     variant: "fresnel-like",
     summary: "strength · (1 − N·v)^power · Col_Ω: a rim light that outlines silhouettes",
+    reads: &["color"],
     params: &[
         ParamSpec { name: "strength", default: "0.6", doc: "brightness of the rim" },
         ParamSpec { name: "power", default: "3", doc: "how thin the rim is (higher: thinner)" },

@@ -156,3 +156,48 @@ fn a_compact_part_holds_its_bands_of_the_whole_render_one_under_the_other() {
         assert!(part.stats.camera_rays > 0);
     }
 }
+
+#[test]
+fn scratch_buffers_kept_between_renders_change_no_bit() {
+    // A browser worker renders band after band with the same kept buffers, and the studio
+    // renders coarse then full, with other models in between: every render must be the bits of
+    // one made with fresh buffers.
+    let kept = lancer_shading::Scratches::default();
+    let bits = |f: &lancer_core::Frame| -> Vec<u32> {
+        std::iter::once(&f.beauty)
+            .chain(f.layers.iter().map(|l| &l.pixels))
+            .flat_map(|p| p.iter().flat_map(|v| v.to_array().map(f32::to_bits)))
+            .collect()
+    };
+    for round in 0..2 {
+        for (scene, samples) in [("scenes/glass.toml", 1), ("scenes/showcase.toml", 2), ("scenes/meshes.toml", 1)] {
+            let loaded = load_file(std::path::Path::new(scene));
+            let mut image = loaded.scene.image;
+            (image.width, image.height, image.samples) = (80, 50, samples);
+            let prepared = lancer_shading::prepare(&loaded.scene).unwrap();
+            // The scene's model, and its first two terms alone (buffers for fewer layers).
+            let mut fewer = load_file(std::path::Path::new(scene)).pipeline;
+            fewer.terms.truncate(2);
+            for pipeline in [&loaded.pipeline, &fewer] {
+                let render = |part, scratch| {
+                    let options = lancer_shading::RenderOptions {
+                        layers: true,
+                        part,
+                        compact: part.is_some(),
+                        scratch,
+                        ..Default::default()
+                    };
+                    lancer_shading::render_prepared(&prepared, &loaded.scene.camera, &image, pipeline, options)
+                };
+                for part in [None, Some((0, 4)), Some((3, 4))] {
+                    assert_eq!(
+                        bits(&render(part, Some(&kept))),
+                        bits(&render(part, None)),
+                        "{scene}, round {round}, {} terms, part {part:?}: kept buffers changed the image",
+                        pipeline.terms.len()
+                    );
+                }
+            }
+        }
+    }
+}

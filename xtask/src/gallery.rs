@@ -1,6 +1,7 @@
-//! The render gallery: every scene with its per-term images side by side, and comparison sheets
-//! that swap one part of the model at a time, written as one self-contained HTML page with
-//! relative image paths (`target/gallery/index.html`); and its check in headless Chromium.
+//! The render gallery: every scene with its per-term images side by side, and the comparison
+//! sheets of `sheets/` (each swaps one part of the model at a time; `lancer sheet` draws it),
+//! written as one self-contained HTML page with relative image paths
+//! (`target/gallery/index.html`); and its check in headless Chromium.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -14,99 +15,41 @@ use crate::{TaskArgs, build_renderer, parse_common, root, scenes};
 /// The terms a model without `terms` gets, in order (the built-in defaults).
 const DEFAULT_TERMS: [&str; 5] = ["ambient", "diffuse", "specular", "mirror", "refraction"];
 
-/// One comparison: the same scene rendered once per column, showing the same images per row.
+/// A comparison sheet of `sheets/`: a sheet file (a scene in a grid of changes to its model)
+/// that `lancer sheet` draws into one picture; its title and description are read from the file
+/// for the page.
 struct Sheet {
-    id: &'static str,
-    title: &'static str,
-    description: &'static str,
-    scene: &'static str,
-    rows: &'static [&'static str],
-    columns: &'static [(&'static str, &'static [&'static str])],
+    /// The file's name without `.toml`.
+    id: String,
+    title: String,
+    description: String,
+    /// The scene, as the sheet file names it (relative to `sheets/`).
+    scene: String,
 }
 
-const SHEETS: &[Sheet] = &[
-    Sheet {
-        id: "shine-ladder",
-        title: "The shine ladder",
-        description: "The handout's figure: diff = spec = 0.5 and shine 0.99, 0.8, 0.5, 0.2 from left to right, so highlight exponents 1/(1 − shine) of 100, 5, 2 and 1.25. The higher the shine, the smaller and sharper the highlight; the specular row shows the highlight alone.",
-        scene: "shine-ladder.toml",
-        rows: &["specular", "diffuse", "beauty"],
-        columns: &[("seed (Phong)", &[])],
-    },
-    Sheet {
-        id: "specular",
-        title: "Phong vs Blinn vs normalised Blinn",
-        description: "The shine ladder with each specular variant. Blinn uses the half vector with exponent 4/(1 − shine), which keeps the seed highlight's size; the energy-normalised variant scales the lobe by (e + 8)/(8π), so sharp highlights become brighter instead of only smaller. Ambient and diffuse are bit-identical across the three.",
-        scene: "shine-ladder.toml",
-        rows: &["specular", "beauty"],
-        columns: &[
-            ("phong", &["--terms", "ambient,diffuse,specular:phong"]),
-            ("blinn", &["--terms", "ambient,diffuse,specular:blinn"]),
-            ("blinn-normalized", &["--terms", "ambient,diffuse,specular:blinn-normalized"]),
-        ],
-    },
-    Sheet {
-        id: "diffuse",
-        title: "Lambert vs Oren–Nayar",
-        description: "Clay spheres lit from near the camera. Oren–Nayar (roughness 20°, its default) models a rough surface: it darkens less towards the rim than Lambert, so the spheres look flatter, like clay or the Moon.",
-        scene: "variants/oren-nayar.toml",
-        rows: &["diffuse", "beauty"],
-        columns: &[
-            ("lambert", &["--terms", "ambient,diffuse:lambert,specular"]),
-            ("oren-nayar", &["--terms", "ambient,diffuse:oren-nayar,specular"]),
-        ],
-    },
-    Sheet {
-        id: "mirror",
-        title: "Constant vs Schlick mirror",
-        description: "Water with spec = 1 and n = 1.33. The seed's constant mirror reflects spec everywhere, a perfect mirror; Fresnel–Schlick reflects about 2% head-on (F0 = ((n − 1)/(n + 1))²) and almost everything towards the horizon.",
-        scene: "variants/schlick.toml",
-        rows: &["mirror", "beauty"],
-        columns: &[
-            ("constant", &["--terms", "ambient,diffuse,mirror:constant"]),
-            ("schlick", &["--terms", "ambient,diffuse,mirror:schlick"]),
-        ],
-    },
-    Sheet {
-        id: "refraction",
-        title: "Seed vs Fresnel refraction",
-        description: "Glass with alpha = 1 and no other term. The seed refraction passes alpha of the light through; the Fresnel variant reflects part of it at each surface (bright rims at grazing angles) and passes the rest.",
-        scene: "variants/fresnel.toml",
-        rows: &["refraction", "beauty"],
-        columns: &[
-            ("seed", &["--terms", "ambient,diffuse,refraction:seed"]),
-            ("fresnel", &["--terms", "ambient,diffuse,refraction:fresnel"]),
-        ],
-    },
-    Sheet {
-        id: "shadows",
-        title: "Shadow models",
-        description: "A clay sphere and a glass cube under a 2 × 2 area light. none: no shadows at all; hard: the handout's, any object blocks the light's centre; transmissive: the glass lets alpha of the light through; soft: the area light is sampled on a stratified grid, giving penumbrae.",
-        scene: "soft-shadows.toml",
-        rows: &["diffuse", "beauty"],
-        columns: &[
-            ("none", &["--shadows", "none"]),
-            ("hard", &["--shadows", "hard"]),
-            ("transmissive", &["--shadows", "transmissive"]),
-            ("soft", &["--shadows", "soft"]),
-        ],
-    },
-    Sheet {
-        id: "depth",
-        title: "The depth limit, 0 to 5",
-        description: "Two facing mirrors: each reflection costs one level of recursion, so max_depth = k shows k nested reflections; at 0 the mirrors show only their own faint colour.",
-        scene: "mirrors.toml",
-        rows: &["beauty"],
-        columns: &[
-            ("max_depth 0", &["--max-depth", "0"]),
-            ("1", &["--max-depth", "1"]),
-            ("2", &["--max-depth", "2"]),
-            ("3", &["--max-depth", "3"]),
-            ("4", &["--max-depth", "4"]),
-            ("5", &["--max-depth", "5"]),
-        ],
-    },
-];
+/// Every sheet file in `sheets/`, by file name, keeping those whose name or scene contains
+/// `filter`.
+fn sheets(filter: Option<&str>) -> Result<Vec<Sheet>> {
+    let dir = root().join("sheets");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .with_context(|| format!("reading {}", dir.display()))?
+        .map(|e| Ok(e?.path()))
+        .collect::<Result<Vec<_>>>()?;
+    files.retain(|p| p.extension().is_some_and(|e| e == "toml"));
+    files.sort();
+    let mut list = Vec::new();
+    for path in files {
+        let src = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+        let doc: toml::Table = src.parse().with_context(|| format!("parsing {}", path.display()))?;
+        let text = |k: &str| doc.get(k).and_then(|v| v.as_str()).unwrap_or_default().to_owned();
+        let id = path.file_stem().unwrap_or_default().to_string_lossy().into_owned();
+        let sheet = Sheet { title: text("title"), description: text("description"), scene: text("scene"), id };
+        if filter.is_none_or(|f| sheet.scene.contains(f) || sheet.id.contains(f)) {
+            list.push(sheet);
+        }
+    }
+    Ok(list)
+}
 
 struct Rendered {
     rel: String,
@@ -143,10 +86,10 @@ fn describe(path: &Path) -> Result<(String, String, Vec<String>)> {
     ))
 }
 
-fn render(lancer: &Path, scene: &Path, dir: &Path, args: &[&str], opts: &[(String, String)]) -> Result<f64> {
+fn render(lancer: &Path, scene: &Path, dir: &Path, opts: &[(String, String)]) -> Result<f64> {
     let mut cmd = Command::new(lancer);
     cmd.arg("render").arg(scene).arg("-o").arg(dir.join("beauty.png")).arg("--aov").arg(dir);
-    cmd.args(["--aov-format", "png", "--quiet"]).args(args);
+    cmd.args(["--aov-format", "png", "--quiet"]);
     for (k, v) in opts {
         cmd.arg(format!("--{k}")).arg(v);
     }
@@ -154,6 +97,26 @@ fn render(lancer: &Path, scene: &Path, dir: &Path, args: &[&str], opts: &[(Strin
     let out = cmd.output().context("running lancer")?;
     if !out.status.success() {
         bail!("rendering {} failed:\n{}", scene.display(), String::from_utf8_lossy(&out.stderr));
+    }
+    Ok(start.elapsed().as_secs_f64())
+}
+
+/// `lancer sheet` on `sheets/ID.toml`, into `out/sheets/ID.png`, at the sheet's own size (a
+/// projector's, so its text stays readable; it costs about a second for all of them): of the
+/// gallery's options only `--samples` is passed on.
+fn render_sheet(lancer: &Path, sheet: &Sheet, out: &Path, opts: &[(String, String)]) -> Result<f64> {
+    let dir = out.join("sheets");
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let file = root().join("sheets").join(format!("{}.toml", sheet.id));
+    let mut cmd = Command::new(lancer);
+    cmd.arg("sheet").arg(&file).arg("-o").arg(dir.join(format!("{}.png", sheet.id))).arg("--quiet");
+    for (k, v) in opts.iter().filter(|(k, _)| k == "samples") {
+        cmd.arg(format!("--{k}")).arg(v);
+    }
+    let start = Instant::now();
+    let result = cmd.output().context("running lancer sheet")?;
+    if !result.status.success() {
+        bail!("lancer sheet {} failed:\n{}", file.display(), String::from_utf8_lossy(&result.stderr));
     }
     Ok(start.elapsed().as_secs_f64())
 }
@@ -174,9 +137,8 @@ pub fn build(args: &[String]) -> Result<()> {
     }
     let list = scenes(filter.as_deref())?;
     let scenes_dir = root().join("scenes");
-    let sheets: Vec<&Sheet> =
-        SHEETS.iter().filter(|s| filter.as_deref().is_none_or(|f| s.scene.contains(f) || s.id.contains(f))).collect();
-    let jobs = list.len() + sheets.iter().map(|s| s.columns.len()).sum::<usize>();
+    let sheets = sheets(filter.as_deref())?;
+    let jobs = list.len() + sheets.len();
     let mine = |job: usize| shard.is_none_or(|(i, n)| job % n == i);
     let share = (0..jobs).filter(|&j| mine(j)).count();
     let (mut done, mut total_seconds) = (0, 0.0);
@@ -196,7 +158,7 @@ pub fn build(args: &[String]) -> Result<()> {
             continue;
         }
         let dir = out.join("scenes").join(&rel);
-        let seconds = render(&lancer, scene, &dir, &[], &opts)?;
+        let seconds = render(&lancer, scene, &dir, &opts)?;
         progress(&format!("scenes/{rel}.toml"), seconds);
         let (title, description, terms) = describe(scene)?;
         let mut layers: Vec<String> = terms.into_iter().filter(|t| dir.join(format!("{t}.png")).exists()).collect();
@@ -205,18 +167,15 @@ pub fn build(args: &[String]) -> Result<()> {
         }
         rendered.push(Rendered { rel, title, description, layers, seconds });
     }
-    let mut columns = Vec::new();
+    let mut made = Vec::new();
     for sheet in &sheets {
-        for (label, extra) in sheet.columns {
-            job += 1;
-            if !mine(job - 1) {
-                continue;
-            }
-            let dir = out.join("sheets").join(sheet.id).join(slug(label));
-            let seconds = render(&lancer, &scenes_dir.join(sheet.scene), &dir, extra, &opts)?;
-            progress(&format!("sheet {}: {label}", sheet.id), seconds);
-            columns.push(format!("{}/{}", sheet.id, slug(label)));
+        job += 1;
+        if !mine(job - 1) {
+            continue;
         }
+        let seconds = render_sheet(&lancer, sheet, &out, &opts)?;
+        progress(&format!("sheets/{}.toml", sheet.id), seconds);
+        made.push(sheet.id.clone());
     }
 
     if let Some((i, n)) = shard {
@@ -229,7 +188,7 @@ pub fn build(args: &[String]) -> Result<()> {
             "scenes": rendered.iter().map(|r| serde_json::json!({
                 "rel": r.rel, "title": r.title, "description": r.description, "layers": r.layers, "seconds": r.seconds,
             })).collect::<Vec<_>>(),
-            "columns": columns,
+            "sheets": made,
         });
         let file = out.join("shards").join(format!("{i}-of-{n}.json"));
         std::fs::create_dir_all(file.parent().expect("a folder"))?;
@@ -252,7 +211,7 @@ fn parse_shard(s: &str) -> Result<(usize, usize)> {
 fn write_page(
     out: &Path,
     rendered: &[Rendered],
-    sheets: &[&Sheet],
+    sheets: &[Sheet],
     opts: &[(String, String)],
     seconds: f64,
 ) -> Result<()> {
@@ -332,15 +291,14 @@ pub fn merge(args: &[String]) -> Result<()> {
         })
         .collect();
     rendered.sort_by_key(|r| order.iter().position(|o| *o == r.rel).unwrap_or(usize::MAX));
-    let sheets: Vec<&Sheet> =
-        SHEETS.iter().filter(|s| filter.is_none_or(|f| s.scene.contains(f) || s.id.contains(f))).collect();
-    let columns: usize = records.iter().map(|r| r["columns"].as_array().map_or(0, Vec::len)).sum();
-    let want = sheets.iter().map(|s| s.columns.len()).sum::<usize>();
-    if rendered.len() != order.len() || columns != want {
+    let sheets = sheets(filter)?;
+    let made: usize = records.iter().map(|r| r["sheets"].as_array().map_or(0, Vec::len)).sum();
+    if rendered.len() != order.len() || made != sheets.len() {
         bail!(
-            "the shards rendered {} scenes and {columns} sheet columns where the build has {} and {want}",
+            "the shards rendered {} scenes and {made} sheets where the build has {} and {}",
             rendered.len(),
-            order.len()
+            order.len(),
+            sheets.len()
         );
     }
     let seconds: f64 = records.iter().map(|r| r["seconds"].as_f64().unwrap_or(0.0)).sum();
@@ -366,7 +324,7 @@ fn figure(src: &str, caption: &str, class: &str) -> String {
     )
 }
 
-fn page(scenes: &[Rendered], sheets: &[&Sheet], opts: &[(String, String)], seconds: f64) -> String {
+fn page(scenes: &[Rendered], sheets: &[Sheet], opts: &[(String, String)], seconds: f64) -> String {
     let mut h = String::new();
     let options: String = opts.iter().map(|(k, v)| format!(" --{k} {v}")).collect();
     let _ = write!(
@@ -384,7 +342,7 @@ fn page(scenes: &[Rendered], sheets: &[&Sheet], opts: &[(String, String)], secon
     );
     h.push_str("<strong>Comparisons:</strong> ");
     for s in sheets {
-        let _ = write!(h, "<a href=\"#sheet-{}\">{}</a> ", s.id, escape(s.title));
+        let _ = write!(h, "<a href=\"#sheet-{}\">{}</a> ", s.id, escape(&s.title));
     }
     h.push_str("<br><strong>Scenes:</strong> ");
     for s in scenes {
@@ -395,27 +353,23 @@ fn page(scenes: &[Rendered], sheets: &[&Sheet], opts: &[(String, String)], secon
         h.push_str("<h2 class=\"part\">Comparison sheets</h2>\n");
     }
     for s in sheets {
-        let _ = write!(
+        let _ = writeln!(
             h,
-            "<section id=\"sheet-{}\"><h3>{}</h3><p>{}</p><p class=\"meta\">scenes/{}</p>\
-             <div class=\"sheet\" style=\"grid-template-columns: 7em repeat({}, minmax(0, 520px))\"><div></div>",
+            "<section id=\"sheet-{}\"><h3>{}</h3><p>{}</p><p class=\"meta\">sheets/{}.toml · scene {} · \
+             <code>lancer sheet sheets/{}.toml -o {}.png</code></p>{}</section>",
             s.id,
-            escape(s.title),
-            escape(s.description),
-            escape(s.scene),
-            s.columns.len()
+            escape(&s.title),
+            escape(&s.description),
+            s.id,
+            escape(s.scene.trim_start_matches("../")),
+            s.id,
+            s.id,
+            figure(
+                &format!("sheets/{}.png", s.id),
+                "the sheet as lancer sheet draws it (click for its full size)",
+                "sheet"
+            )
         );
-        for (label, _) in s.columns {
-            let _ = write!(h, "<div class=\"col\">{}</div>", escape(label));
-        }
-        for row in s.rows {
-            let _ = write!(h, "<div class=\"row\">{}</div>", escape(row));
-            for (label, _) in s.columns {
-                let src = format!("sheets/{}/{}/{row}.png", s.id, slug(label));
-                let _ = write!(h, "{}", figure(&src, &format!("{row}, {label}"), "cell"));
-            }
-        }
-        h.push_str("</div></section>\n");
     }
     h.push_str("<h2 class=\"part\">Scenes</h2>\n");
     for s in scenes {
@@ -450,8 +404,7 @@ figure{margin:0}img{display:block;width:100%;height:auto;image-rendering:auto;ba
 figcaption{font-size:12px;color:#bbb;text-align:center;padding:2px 0}\
 .scene{display:grid;grid-template-columns:minmax(0,2fr) minmax(0,3fr);gap:1em;align-items:start}\
 .terms{display:grid;grid-template-columns:repeat(3,minmax(0,1fr));gap:.6em}\
-.sheet{display:grid;gap:.5em;align-items:center}.col{text-align:center;font-weight:600}\
-.row{font-weight:600;text-align:right;padding-right:.5em}";
+figure.sheet{max-width:1400px}";
 
 /// Records, once the page has loaded, how many images loaded and which did not: the browser check
 /// reads these attributes.

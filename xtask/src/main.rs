@@ -3,6 +3,7 @@
 
 mod bench;
 mod compare;
+mod course;
 mod fuzz;
 mod gallery;
 mod portable;
@@ -27,14 +28,23 @@ tasks:
             difference and a page to target/compare/<scene>/; prints PSNR and the share of
             pixels that differ visibly, failing below --min-psnr (says so and stops when POV-Ray
             is not installed)
+  course
+            the course folder for students, target/course/: the scenes of course/ (each checked
+            free of warnings), their reference images per term (PNG and EXR), the sheets of
+            course/sheets/ (lancer sheet) and a README (docs/course.md is the teacher's text)
+  course-check
+            the starter crate's harness both ways: course/starter's tests must fail as shipped,
+            name specular:exponent-shine for a term with that mistake, and pass with the
+            solution kept in xtask/course-solution/
   fuzz [--runs N] [--seed S]
             mutate the scenes in scenes/ (lines, numbers, junk tokens and tables) and load, prepare
             and render each in-process; any panic, hang, unlocated error or NaN is written to
             target/fuzz/ (default 2000 runs, seed 1)
   gallery [--width W] [--samples N] [--shard I/N] [FILTER]
             render every scene in scenes/ (or those whose path contains FILTER) with its per-term
-            images, and the comparison sheets, into target/gallery/index.html; with --shard, only
-            every N-th render from the I-th (for several machines), recorded for gallery-merge
+            images, and the comparison sheets of sheets/ (lancer sheet, at their own size), into
+            target/gallery/index.html; with --shard, only every N-th render from the I-th (for
+            several machines), recorded for gallery-merge
   studio-check [--screenshot FILE]
             lancer serve in Chromium through chromedriver: sliders, switches, variants, the
             inspector and a broken save, each checked; a screenshot (default docs/studio.png)
@@ -80,6 +90,8 @@ fn run(args: Vec<String>) -> Result<()> {
     match args.first().map(String::as_str) {
         Some("bench") => bench::run(&args[1..]),
         Some("compare") => compare::run(&args[1..]),
+        Some("course") => course::build(&args[1..]),
+        Some("course-check") => course::check(&args[1..]),
         Some("fuzz") => fuzz::run(&args[1..]),
         Some("gallery") => gallery::build(&args[1..]),
         Some("gallery-check") => gallery::check(&args[1..]),
@@ -120,7 +132,8 @@ pub fn scenes(filter: Option<&str>) -> Result<Vec<PathBuf>> {
     Ok(list)
 }
 
-/// Builds the release renderer and returns its path.
+/// Builds the release renderer and returns its path (under `CARGO_TARGET_DIR` when it is set,
+/// where cargo puts it).
 pub fn build_renderer() -> Result<PathBuf> {
     let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .args(["build", "--release", "--package", "lancer-cli"])
@@ -130,7 +143,8 @@ pub fn build_renderer() -> Result<PathBuf> {
     if !status.success() {
         bail!("building the renderer failed");
     }
-    Ok(root().join("target/release/lancer"))
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root().join("target"), |d| root().join(d));
+    Ok(target.join("release/lancer"))
 }
 
 /// A task's command line: `--NAME VALUE` options and at most one free argument (a filter).

@@ -84,7 +84,7 @@ fn run(d: &Driver, url: &str, scene: &Path, original: &str, screenshot: &Path) -
     let before = hashes(&["ambient", "diffuse"])?;
     let (coarse, full) = edit(
         "the image after moving floor's diff",
-        "fieldset[data-material='1'] input[data-param='diff']",
+        "fieldset[data-name='floor'] input[data-param='diff']",
         json!("0.3"),
     )?;
     let after = hashes(&["ambient", "diffuse"])?;

@@ -312,7 +312,7 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
     let hash = |name: &str| d.js("return window.studio.hash(arguments[0])", json!([name]));
     let before = (hash("ambient")?, hash("diffuse")?);
     let (_, g, _) = shown(d)?;
-    let ok = d.js(SET, json!(["fieldset[data-material='1'] input[data-param='diff']", "0.3"]))?;
+    let ok = d.js(SET, json!(["fieldset[data-name='floor'] input[data-param='diff']", "0.3"]))?;
     if ok != json!(true) {
         bail!("the floor's diff slider: {ok}");
     }
@@ -357,7 +357,7 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
         bail!("a broken edit replaced the image");
     }
     let (_, g, _) = shown(d)?;
-    d.js(SET, json!(["fieldset[data-material='1'] input[data-param='diff']", "0.35"]))?;
+    d.js(SET, json!(["fieldset[data-name='floor'] input[data-param='diff']", "0.35"]))?;
     full_after(d, "a slider moved while the text is broken", g)?;
     let kept = d.js("return document.getElementById('source').value", json!([]))?;
     if kept != json!(broken) {
@@ -555,7 +555,7 @@ pub fn measure(runs: usize) -> Result<WebTimes> {
             d.js(
                 SET,
                 json!([
-                    "fieldset[data-material='1'] input[data-param='diff']",
+                    "fieldset[data-name='floor'] input[data-param='diff']",
                     format!("{:.3}", 0.3 + 0.05 * k as f64)
                 ]),
             )?;

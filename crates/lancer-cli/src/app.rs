@@ -66,6 +66,10 @@ enum Command {
     /// the first line is `verdict: correct`, `verdict: NAME` (e.g. specular:sign) or
     /// `verdict: unclear`; exit 0 correct, 1 a mistake or unclear, 2 bad input.
     Diagnose(crate::diagnose::DiagnoseArgs),
+    /// A lecture sheet: a scene rendered in a grid whose columns and rows change the model, the
+    /// materials or the image shown, with its title and labels drawn in (`-o sheet.png`), or as
+    /// a page (`-o sheet.html`); the format is in docs/sheets.md.
+    Sheet(crate::sheet::SheetArgs),
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -80,7 +84,7 @@ enum AovFormat {
 }
 
 /// The default of `--max-file-size`, in MB.
-const MAX_FILE_MB: u64 = 1024;
+pub(crate) const MAX_FILE_MB: u64 = 1024;
 
 /// What every command that renders reads: the scene and how to change its model and image.
 #[derive(Args, Clone, Default)]
@@ -96,15 +100,15 @@ pub(crate) struct SceneArgs {
     /// `ambient,diffuse,specular:blinn:exponent=64`. A term the scene has in the same variant
     /// keeps its parameters (`weight` too) unless given again.
     #[arg(long, value_name = "TERM[:VARIANT][:KEY=VALUE]...,...", value_delimiter = ',')]
-    terms: Option<Vec<String>>,
+    pub(crate) terms: Option<Vec<String>>,
     /// Replace the model's shadow model, with parameters as KEY=VALUE, e.g. `none`, `hard`,
     /// `soft:samples=64`, `transmissive:tint=true`. The scene's model keeps its parameters unless
     /// given again.
     #[arg(long, value_name = "MODEL[:KEY=VALUE]...")]
-    shadows: Option<String>,
+    pub(crate) shadows: Option<String>,
     /// Replace the model's recursion limit for mirror and refraction rays.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(0..=64))]
-    max_depth: Option<u8>,
+    pub(crate) max_depth: Option<u8>,
     /// Image width (the height follows the scene's aspect ratio unless --height is given).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: Option<u32>,
@@ -113,7 +117,7 @@ pub(crate) struct SceneArgs {
     height: Option<u32>,
     /// Samples per pixel (anti-aliasing), overriding the scene's.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
-    samples: Option<u32>,
+    pub(crate) samples: Option<u32>,
     /// Largest file (scene, model, mesh or texture) Lancer will read, in MB.
     #[arg(long, value_name = "MB", default_value_t = MAX_FILE_MB, value_parser = clap::value_parser!(u64).range(1..))]
     max_file_size: u64,
@@ -131,13 +135,28 @@ pub(crate) struct SceneArgs {
     fingerprint: bool,
 }
 
+impl SceneArgs {
+    /// The scene file `scene` as it is, read within the command line's default limits.
+    pub(crate) fn of(scene: Option<PathBuf>) -> SceneArgs {
+        SceneArgs {
+            scene,
+            max_file_size: MAX_FILE_MB,
+            max_texture_pixels: lancer_scene::MAX_TEXTURE_PIXELS,
+            max_triangles: lancer_scene::MAX_TRIANGLES,
+            ..SceneArgs::default()
+        }
+    }
+}
+
 #[derive(Args, Clone, Default)]
 pub(crate) struct RenderArgs {
     #[command(flatten)]
     pub(crate) input: SceneArgs,
-    /// Beauty image: .png (sRGB 8-bit) or .exr (linear float).
-    #[arg(short, long, default_value = "render.png")]
-    pub(crate) output: PathBuf,
+    /// Beauty image: .png (sRGB 8-bit) or .exr (linear float); a device or pipe such as
+    /// /dev/null or /dev/stdout gets a PNG [default: render.png; with --tile I/N, the part file
+    /// render-I.lpart].
+    #[arg(short, long, value_name = "FILE")]
+    pub(crate) output: Option<PathBuf>,
     /// Also write DIR/<term>.exr and DIR/<term>.png for every term, and DIR/beauty.{exr,png}.
     #[arg(long, value_name = "DIR")]
     aov: Option<PathBuf>,
@@ -256,6 +275,19 @@ struct ExplainArgs {
     json: bool,
 }
 
+impl RenderArgs {
+    /// Where the render goes: `-o`, else `render.png`, or for a part of a render (`--tile I/N`)
+    /// `render-I.lpart` (a part file named like an image would be taken for one, and parts of
+    /// one render written side by side must not overwrite each other).
+    pub(crate) fn output(&self) -> PathBuf {
+        match (&self.output, self.tile) {
+            (Some(path), _) => path.clone(),
+            (None, Some((index, _))) => PathBuf::from(format!("render-{index}.lpart")),
+            (None, None) => PathBuf::from("render.png"),
+        }
+    }
+}
+
 /// `X,Y` as two whole numbers.
 fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
     let expected = || format!("expected X,Y (column from the left, row from the top), e.g. 120,45; got `{s}`");
@@ -267,13 +299,74 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 /// errors are printed on stderr. Call it from `main` after registering your own terms.
 pub fn main_with(registry: Registry) -> ExitCode {
     stop_cleanly_on_signals();
-    match run(Cli::parse(), &registry) {
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    if let Some(message) = neither_a_scene_nor_a_subcommand(&args) {
+        eprintln!("error: {message}");
+        // A usage error, as clap's own.
+        return ExitCode::from(2);
+    }
+    match run(Cli::parse_from(args), &registry) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
     }
+}
+
+/// What to say when the first word of `lancer WORD ...` (no subcommand: a render of the scene
+/// WORD) is neither a file nor a subcommand: a subcommand it is close to (`chek`: "did you mean
+/// 'check'?"), else that there is no such scene, with the subcommands. Otherwise clap would
+/// take the word for the scene and say "the subcommand 'x.toml' cannot be used with '[SCENE]'"
+/// of `lancer chek x.toml`, and the render "reading scene serv" of `lancer serv`. (clap's own
+/// suggestions are for a word in a subcommand's place, which this one is not.)
+fn neither_a_scene_nor_a_subcommand(args: &[std::ffi::OsString]) -> Option<String> {
+    use clap::CommandFactory;
+    let cmd = Cli::command();
+    let word = first_positional(&cmd, args)?;
+    let mut names: Vec<&str> = cmd.get_subcommands().map(|c| c.get_name()).collect();
+    names.push("help");
+    if names.contains(&word) || Path::new(word).exists() {
+        return None;
+    }
+    Some(match lancer_shading::nearest(word, names.iter().copied()) {
+        Some(near) => format!("unknown subcommand '{word}' — did you mean '{near}'?"),
+        None => {
+            format!("scene file `{word}` not found (nor is it a subcommand); the subcommands: {}", names.join(", "))
+        }
+    })
+}
+
+/// The first word of `args` (after the program's name) that is not a flag nor a flag's value,
+/// as `cmd` reads them; `None` when there is none, or it is not UTF-8.
+fn first_positional<'a>(cmd: &clap::Command, args: &'a [std::ffi::OsString]) -> Option<&'a str> {
+    let takes_value = |arg: Option<&clap::Arg>| arg.is_some_and(|a| a.get_action().takes_values());
+    let mut words = args.iter().skip(1);
+    while let Some(word) = words.next() {
+        let word = word.to_str()?;
+        if word == "--" {
+            return words.next()?.to_str();
+        }
+        if let Some(long) = word.strip_prefix("--") {
+            if !long.contains('=') && takes_value(cmd.get_arguments().find(|a| a.get_long() == Some(long))) {
+                words.next();
+            }
+        } else if let Some(shorts) = word.strip_prefix('-').filter(|s| !s.is_empty()) {
+            // `-q`, `-qo out.png`, `-oout.png`, `-o out.png`: a short flag taking a value takes
+            // the rest of the word, or the next word when it is the last.
+            for (i, c) in shorts.char_indices() {
+                if takes_value(cmd.get_arguments().find(|a| a.get_short() == Some(c))) {
+                    if i + c.len_utf8() == shorts.len() {
+                        words.next();
+                    }
+                    break;
+                }
+            }
+        } else {
+            return Some(word);
+        }
+    }
+    None
 }
 
 /// Ctrl-C (SIGINT), SIGTERM and SIGHUP (what `timeout`, Slurm's `scancel` and Kubernetes send):
@@ -322,6 +415,7 @@ fn run(cli: Cli, registry: &Registry) -> Result<()> {
         Some(Command::Serve(args)) => serve(registry, args),
         Some(Command::Diff(args)) => crate::diff::run(args),
         Some(Command::Diagnose(args)) => crate::diagnose::run(registry, args),
+        Some(Command::Sheet(args)) => crate::sheet::run(registry, args),
         Some(Command::Terms(args)) => {
             print!(
                 "{}",
@@ -392,7 +486,7 @@ pub(crate) fn read_checked(path: &Path, what: &str, limit: u64, under: Option<&P
     Ok(bytes)
 }
 
-fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
+pub(crate) fn read(path: &Path, what: &str, limit: u64) -> Result<String> {
     let bytes = read_bytes(path, what, limit).map_err(anyhow::Error::msg)?;
     String::from_utf8(bytes).with_context(|| format!("reading {what} {}: not UTF-8 text", path.display()))
 }
@@ -404,7 +498,7 @@ pub(crate) struct Loaded {
     /// What loading found to warn about.
     warnings: Vec<lancer_scene::Warning>,
     /// Where the scene's parts are in its file.
-    places: lancer_scene::Places,
+    pub(crate) places: lancer_scene::Places,
     /// Fingerprints of everything the render depends on (the scene, model and files read,
     /// the effective model and image settings, Lancer's version): parts of one render share them.
     identity: crate::part::Sources,
@@ -469,62 +563,10 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
     let load_time = load_start.elapsed();
     let (mut scene, warnings, mut places) = (loaded.scene, loaded.warnings, loaded.places);
     places.chosen_terms |= args.terms.is_some() || args.model.is_some();
-    let mut pipeline = match &args.model {
-        Some(p) => {
-            let text = read(p, "model", args.max_file_size)?;
-            sources.borrow_mut().model_file = Some(crate::part::digest(text.as_bytes()));
-            lancer_scene::load_model_over(&text, &p.display().to_string(), registry, loaded.pipeline)
-                .map_err(anyhow::Error::msg)?
-        }
-        None => loaded.pipeline,
-    };
-    if let Some(list) = &args.terms {
-        let mut terms = Vec::with_capacity(list.len());
-        for entry in list {
-            let choice = Choice::parse(entry).map_err(anyhow::Error::msg).context("in --terms")?;
-            // A name means its default variant, as in a scene file. When the scene has the
-            // same term in the same variant, its parameters (weight included) stay unless given
-            // again.
-            let context = || format!("in --terms {entry}");
-            let plain = registry.build_term(&choice.name, choice.variant.as_deref(), choice.over(&[]));
-            let kept = plain
-                .as_ref()
-                .ok()
-                .and_then(|built| pipeline.terms.iter().find(|t| t.name == built.name && t.variant == built.variant));
-            let term = match kept {
-                Some(k) => {
-                    registry.build_term(&choice.name, Some(&k.variant), choice.over(&k.params)).with_context(context)?
-                }
-                None => plain.with_context(context)?,
-            };
-            terms.push(term);
-        }
-        pipeline = Pipeline::new(pipeline.max_depth, pipeline.shadows, terms).context("in --terms")?;
-    }
-    if let Some(entry) = &args.shadows {
-        let choice = Choice::parse(entry).map_err(anyhow::Error::msg).context("in --shadows")?;
-        if let Some(v) = &choice.variant {
-            bail!(
-                "in --shadows {entry}: a shadow model has no variant `{v}`; give parameters as KEY=VALUE, e.g. soft:samples=64"
-            );
-        }
-        // The scene's parameters for the same model stay, unless given again.
-        let kept = (pipeline.shadows.name == choice.name).then_some(pipeline.shadows.params.as_slice());
-        pipeline.shadows = registry
-            .build_shadow(&choice.name, choice.over(kept.unwrap_or_default()))
-            .with_context(|| format!("in --shadows {entry}"))?;
-    }
-    if let Some(depth) = args.max_depth {
-        pipeline.max_depth = depth;
-    }
+    let (pipeline, model_file) = change_model(registry, args, loaded.pipeline)?;
+    sources.borrow_mut().model_file = model_file;
     let img = &mut scene.image;
-    let aspect = img.width as f64 / img.height as f64;
-    match (args.width, args.height) {
-        (Some(w), Some(h)) => (img.width, img.height) = (w, h),
-        (Some(w), None) => (img.width, img.height) = (w, ((w as f64 / aspect).round() as u32).max(1)),
-        (None, Some(h)) => (img.width, img.height) = (((h as f64 * aspect).round() as u32).max(1), h),
-        (None, None) => {}
-    }
+    resize(img, args.width, args.height);
     if let Some(s) = args.samples {
         img.samples = s;
     }
@@ -551,9 +593,84 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
     Ok(Loaded { scene, pipeline, warnings, places, identity, name, source: src, load_time })
 }
 
+/// `args`' changes to the model `pipeline`, in this order: its model file (what the file sets),
+/// its terms, its shadow model, its depth limit. Gives the new model and the model file's
+/// digest.
+pub(crate) fn change_model(
+    registry: &Registry,
+    args: &SceneArgs,
+    pipeline: Pipeline,
+) -> Result<(Pipeline, Option<String>)> {
+    let (mut pipeline, model_file) = match &args.model {
+        Some(p) => {
+            let text = read(p, "model", args.max_file_size)?;
+            let over = lancer_scene::load_model_over(&text, &p.display().to_string(), registry, pipeline)
+                .map_err(anyhow::Error::msg)?;
+            (over, Some(crate::part::digest(text.as_bytes())))
+        }
+        None => (pipeline, None),
+    };
+    if let Some(list) = &args.terms {
+        let mut terms = Vec::with_capacity(list.len());
+        for entry in list {
+            let choice = Choice::parse(entry).map_err(anyhow::Error::msg).context("in --terms")?;
+            // A name means its default variant, as in a scene file. When the scene has the
+            // same term in the same variant, its parameters (weight included) stay unless given
+            // again.
+            let context = || format!("in --terms {entry}");
+            let plain = registry.build_term(&choice.name, choice.variant.as_deref(), choice.over(&[]));
+            let kept = plain
+                .as_ref()
+                .ok()
+                .and_then(|built| pipeline.terms.iter().find(|t| t.name == built.name && t.variant == built.variant));
+            // Said in the flag's syntax: a hint at another variant as `NAME:VARIANT:KEY=VALUE`.
+            let flag = |e: lancer_shading::ModelError| anyhow::anyhow!(e.in_flag_syntax(entry));
+            let term = match kept {
+                Some(k) => registry
+                    .build_term(&choice.name, Some(&k.variant), choice.over(&k.params))
+                    .map_err(flag)
+                    .with_context(context)?,
+                None => plain.map_err(flag).with_context(context)?,
+            };
+            terms.push(term);
+        }
+        pipeline = Pipeline::new(pipeline.max_depth, pipeline.shadows, terms).context("in --terms")?;
+    }
+    if let Some(entry) = &args.shadows {
+        let choice = Choice::parse(entry).map_err(anyhow::Error::msg).context("in --shadows")?;
+        if let Some(v) = &choice.variant {
+            return Err(anyhow::anyhow!(
+                "a shadow model has no variant `{v}`; give parameters as KEY=VALUE, e.g. soft:samples=64"
+            ))
+            .with_context(|| format!("in --shadows {entry}"));
+        }
+        // The scene's parameters for the same model stay, unless given again.
+        let kept = (pipeline.shadows.name == choice.name).then_some(pipeline.shadows.params.as_slice());
+        pipeline.shadows = registry
+            .build_shadow(&choice.name, choice.over(kept.unwrap_or_default()))
+            .with_context(|| format!("in --shadows {entry}"))?;
+    }
+    if let Some(depth) = args.max_depth {
+        pipeline.max_depth = depth;
+    }
+    Ok((pipeline, model_file))
+}
+
+/// Gives `img` the width and height asked for; only one of them, the other follows the
+/// image's aspect ratio.
+pub(crate) fn resize(img: &mut lancer_core::ImageSettings, width: Option<u32>, height: Option<u32>) {
+    let aspect = img.width as f64 / img.height as f64;
+    match (width, height) {
+        (Some(w), Some(h)) => (img.width, img.height) = (w, h),
+        (Some(w), None) => (img.width, img.height) = (w, ((w as f64 / aspect).round() as u32).max(1)),
+        (None, Some(h)) => (img.width, img.height) = (((h as f64 * aspect).round() as u32).max(1), h),
+        (None, None) => {}
+    }
+}
+
 impl Loaded {
     /// Prepares the scene and gathers every warning: loading's, then the prepared scene's.
-    fn prepare(&self) -> Result<(lancer_shading::Prepared, Vec<lancer_scene::Warning>)> {
+    pub(crate) fn prepare(&self) -> Result<(lancer_shading::Prepared, Vec<lancer_scene::Warning>)> {
         let prepared = lancer_shading::prepare(&self.scene).with_context(|| format!("preparing {}", self.name))?;
         let mut warnings = self.warnings.clone();
         warnings.extend(lancer_scene::check(&self.scene, &self.pipeline, &prepared, &self.places));
@@ -582,6 +699,19 @@ fn check(registry: &Registry, args: CheckArgs) -> Result<()> {
         // The prepared table ends with the default material for objects that name none.
         prepared.materials.len() - 1
     );
+    // Named as the file names them, in its order (the numbering `explain` and the studio use).
+    let objects = lancer_studio::session::object_labels(&prepared, &loaded.places);
+    const LISTED: usize = 20;
+    for o in objects.iter().take(LISTED) {
+        println!("  {o}");
+    }
+    if objects.len() > LISTED {
+        println!("  ... and {} more objects", objects.len() - LISTED);
+    }
+    if !loaded.places.materials.is_empty() {
+        let names: Vec<String> = loaded.places.materials.iter().map(|m| format!("\"{m}\"")).collect();
+        println!("  materials: {}", names.join(", "));
+    }
     println!("  image {}x{}; model: {}", img.width, img.height, crate::stats::effective_model(&loaded.pipeline, img));
     for w in &warnings {
         println!("{w}");
@@ -597,14 +727,23 @@ fn render(registry: &Registry, args: RenderArgs) -> Result<()> {
 /// [`render`], adding to `inputs` every file it reads.
 pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &Inputs) -> Result<()> {
     // Check every output path before the (long) render, so a typo costs nothing. A part's
-    // output is a part file whatever its name.
-    let format = if args.tile.is_some() { Format::Exr } else { Format::of(&args.output)? };
+    // output is a part file whatever its name, but not one named as an image.
+    let output = args.output();
+    let format = match args.tile {
+        Some(_) if Format::of(&output).is_ok() && !crate::output::is_stream(&output) => bail!(
+            "with --tile, -o names a part file, which is no image: call it .lpart (e.g. -o part-0.lpart); \
+             `lancer merge PARTS... -o {}` writes the image",
+            output.display()
+        ),
+        Some(_) => Format::Exr,
+        None => Format::of(&output)?,
+    };
     // (The per-term images' folder, made before the render, may hold the image.)
-    if let Some(folder) = args.output.parent().filter(|p| !p.as_os_str().is_empty())
+    if let Some(folder) = output.parent().filter(|p| !p.as_os_str().is_empty())
         && !folder.is_dir()
         && args.aov.as_deref() != Some(folder)
     {
-        bail!("cannot write {}: there is no folder {}", args.output.display(), folder.display());
+        bail!("cannot write {}: there is no folder {}", output.display(), folder.display());
     }
     if args.tile.is_some() && args.output_mistake.is_some() {
         bail!("--output-mistake shows a mistake in whole images; a part of a render (--tile) is written as it is");
@@ -677,6 +816,7 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
                 layers: args.aov.is_some() || args.tile.is_some(),
                 reference: args.reference,
                 compact: false,
+                scratch: None,
             },
         )
     });
@@ -715,9 +855,9 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
                     rays: [frame.stats.camera_rays, frame.stats.secondary_rays, frame.stats.shadow_rays],
                     seconds: elapsed.as_secs_f64(),
                 };
-                crate::part::write(&args.output, &header, &frame)?;
+                crate::part::write(&output, &header, &frame)?;
             }
-            None => format.write(&args.output, frame.width, frame.height, beauty)?,
+            None => format.write(&output, frame.width, frame.height, beauty)?,
         }
         if let Some(dir) = &args.aov {
             write_aovs(dir, &frame, beauty, args.aov_format, &|files| run.json(files))?;
@@ -744,7 +884,7 @@ pub(crate) fn render_recording(registry: &Registry, args: &RenderArgs, inputs: &
             frame.stats.secondary_rays,
             frame.stats.shadow_rays,
             frame.stats.total() as f64 / 1e6 / elapsed.as_secs_f64().max(1e-9),
-            args.output.display(),
+            output.display(),
             args.aov.as_ref().map(|d| format!(" and {}/", d.display())).unwrap_or_default(),
             load_time.as_secs_f64(),
             peak_memory().map(|b| format!(", peak memory {:.1} MB", b as f64 / 1e6)).unwrap_or_default()
@@ -876,15 +1016,22 @@ fn explain(registry: &Registry, args: ExplainArgs) -> Result<()> {
     for w in &warnings {
         eprintln!("{w}");
     }
-    let Loaded { scene, pipeline, name, .. } = loaded;
+    let objects = lancer_studio::session::object_labels(&prepared, &loaded.places);
+    let Loaded { scene, pipeline, name, places, .. } = loaded;
     let (x, y) = args.pixel;
     let (w, h) = (scene.image.width, scene.image.height);
     if x >= w || y >= h {
         bail!("pixel {x},{y} is outside the {w}x{h} image (columns 0..{}, rows 0..{})", w - 1, h - 1);
     }
     let explanation = lancer_shading::explain_pixel(&prepared, &scene.camera, &scene.image, &pipeline, x, y);
-    let report =
-        lancer_output::Report { scene: &name, image: &scene.image, pipeline: &pipeline, explanation: &explanation };
+    let report = lancer_output::Report {
+        scene: &name,
+        image: &scene.image,
+        pipeline: &pipeline,
+        explanation: &explanation,
+        objects: &objects,
+        materials: &places.materials,
+    };
     if args.json {
         println!("{}", report.json());
     } else {

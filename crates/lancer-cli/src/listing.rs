@@ -16,12 +16,19 @@ fn params(out: &mut String, params: &[ParamSpec]) {
 pub fn terms(registry: &Registry) -> String {
     let mut out = String::from("Terms, for `terms = [...]` in [model] or a model file. A term is a name, or a table\n");
     out.push_str("{ term = \"NAME\", variant = \"VARIANT\", PARAM = VALUE, ... }; the first variant is the default.\n");
-    let _ = writeln!(out, "Every term also takes `{} = {}`: {}.\n", WEIGHT.name, WEIGHT.default, WEIGHT.doc);
+    let _ = writeln!(out, "Every term also takes `{} = {}`: {}.", WEIGHT.name, WEIGHT.default, WEIGHT.doc);
+    let _ = writeln!(
+        out,
+        "`reads:` names the material fields ({}) a variant's formula uses.\n",
+        lancer_shading::MATERIAL_FIELDS.join(" ")
+    );
     for name in registry.term_names() {
         let _ = writeln!(out, "{name}");
         for (i, spec) in registry.terms().iter().filter(|t| t.name == name).enumerate() {
             let default = if i == 0 { " (default)" } else { "" };
             let _ = writeln!(out, "    {}{default}: {}", spec.variant, spec.summary);
+            // Which numbers of a material change this term's image.
+            let _ = writeln!(out, "        reads: {}", spec.reads.join(", "));
             params(&mut out, spec.params);
         }
     }
@@ -76,6 +83,19 @@ mod tests {
     #[test]
     fn listing_of_the_built_ins() {
         insta::assert_snapshot!(super::terms(&lancer_shading::Registry::with_builtins()));
+    }
+
+    #[test]
+    fn regression_lancer_terms_did_not_say_which_material_fields_a_term_reads() {
+        let listing = super::terms(&lancer_shading::Registry::with_builtins());
+        let after = |variant: &str| {
+            let at = listing.find(&format!("\n    {variant}")).unwrap_or_else(|| panic!("{variant}: {listing}"));
+            listing[at..].lines().nth(2).unwrap().trim().to_owned()
+        };
+        assert_eq!(after("phong (default)"), "reads: spec, shine");
+        assert_eq!(after("lambert (default)"), "reads: diff, color");
+        assert_eq!(after("fresnel"), "reads: alpha, n, color");
+        assert_eq!(after("schlick"), "reads: spec, n");
     }
 
     #[test]

@@ -20,11 +20,13 @@ pub enum Format {
 }
 
 impl Format {
-    /// The format a path's extension asks for.
+    /// The format a path's extension asks for; PNG for a device or a pipe that has none
+    /// (`-o /dev/null`, `-o /dev/stdout`).
     pub fn of(path: &Path) -> Result<Format> {
         match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
             Some("png") => Ok(Format::Png),
             Some("exr") => Ok(Format::Exr),
+            _ if is_stream(path) => Ok(Format::Png),
             _ => bail!("output {} must end in .png (sRGB 8-bit) or .exr (linear float)", path.display()),
         }
     }
@@ -55,6 +57,29 @@ impl Format {
             out.flush()?;
             Ok(())
         })
+    }
+}
+
+/// Whether `path` is a character device, a pipe or a socket (`/dev/null`, `/dev/stdout`, a
+/// FIFO): written to as it is, not through a temporary file renamed over it (which would
+/// replace the device, or fail). A link is followed only under `/dev` and `/proc/self/fd`,
+/// where the system makes them (`/dev/stdout` is one): a link planted beside the outputs is
+/// replaced, as a file is, never written through. Block devices are never written to.
+pub fn is_stream(path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let system = path.starts_with("/dev") || path.starts_with("/proc/self/fd");
+        let meta = if system { std::fs::metadata(path) } else { std::fs::symlink_metadata(path) };
+        meta.is_ok_and(|m| {
+            let t = m.file_type();
+            t.is_char_device() || t.is_fifo() || t.is_socket()
+        })
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        false
     }
 }
 
@@ -128,10 +153,18 @@ fn atomically(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) 
 /// the permissions of the file it replaces (or a new file's usual ones); the rename replaces the
 /// path itself, so a symlink planted at the path is replaced, never its target.
 pub struct Pending {
-    file: Option<tempfile::NamedTempFile>,
+    file: Option<Target>,
     /// The temporary file's path, as registered for [`remove_temporaries`].
     tmp: PathBuf,
     path: PathBuf,
+}
+
+/// What a [`Pending`] writes into.
+enum Target {
+    /// A temporary file beside the path, renamed to it when finished.
+    Temporary(tempfile::NamedTempFile),
+    /// The path itself, a device or a pipe ([`is_stream`]): written as it is.
+    Stream(std::fs::File),
 }
 
 /// A new temporary file in `path`'s folder, to be renamed to `path`: created exclusively under an
@@ -159,6 +192,15 @@ pub fn temporary_for(path: &Path) -> Result<tempfile::NamedTempFile> {
 impl Pending {
     /// Runs `fill` on a new temporary file beside `path`.
     fn begin(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<Pending> {
+        if is_stream(path) {
+            // Opened as it is (a pipe waits for its reader), neither created nor truncated.
+            let mut file = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .with_context(|| format!("writing {}", path.display()))?;
+            fill(&mut file).with_context(|| format!("writing {}", path.display()))?;
+            return Ok(Pending { file: Some(Target::Stream(file)), tmp: PathBuf::new(), path: path.to_path_buf() });
+        }
         // Created and registered under the registry's lock, so a stop in between (whose cleanup
         // takes the lock) cannot miss it.
         let (file, tmp) = {
@@ -169,15 +211,22 @@ impl Pending {
             (file, tmp)
         };
         // From here on, dropping `pending` (on an error) removes the temporary file.
-        let mut pending = Pending { file: Some(file), tmp, path: path.to_path_buf() };
-        let f = pending.file.as_mut().expect("just set").as_file_mut();
-        fill(f).with_context(|| format!("writing {}", path.display()))?;
+        let mut pending = Pending { file: Some(Target::Temporary(file)), tmp, path: path.to_path_buf() };
+        let Some(Target::Temporary(f)) = pending.file.as_mut() else { unreachable!("just set") };
+        fill(f.as_file_mut()).with_context(|| format!("writing {}", path.display()))?;
         Ok(pending)
     }
 
-    /// Flushes the file to disk and renames it to its path.
+    /// Flushes the file to disk and renames it to its path (a device or pipe is already
+    /// written).
     pub fn finish(mut self) -> Result<()> {
-        let file = self.file.take().expect("a pending file is filled");
+        let file = match self.file.take().expect("a pending file is filled") {
+            Target::Temporary(file) => file,
+            // Nothing to rename nor to sync (a device or pipe may refuse `fsync`).
+            Target::Stream(mut file) => {
+                return file.flush().with_context(|| format!("writing {}", self.path.display()));
+            }
+        };
         let result = file
             .as_file()
             .sync_all()

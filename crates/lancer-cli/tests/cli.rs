@@ -1190,8 +1190,9 @@ fn the_studio_saves_edits_into_the_scene_text_keeping_its_comments() {
     let (mut ws, hello) = Socket::open(&s);
     ws.full_frame();
     let mut state = hello["state"].clone();
-    assert_eq!(state["materials"][1]["label"], "floor");
-    state["materials"][1]["diff"] = serde_json::json!(0.3);
+    // Materials in file order: the showcase's first is the floor.
+    assert_eq!(state["materials"][0]["label"], "floor");
+    state["materials"][0]["diff"] = serde_json::json!(0.3);
     state["model"]["terms"][2]["variant"] = serde_json::json!("blinn");
     ws.send(state.to_string().as_bytes()).unwrap();
     ws.full_frame();
@@ -1426,4 +1427,171 @@ fn export_pov_of_a_scene_far_from_the_origin_writes_world_coordinates() {
     ] {
         assert!(pov.contains(line), "{line}: {pov}");
     }
+}
+
+#[test]
+fn explain_names_objects_and_materials_as_the_file_does() {
+    // Materials are stored alphabetically ("aaa" before "zinc") while objects keep file order:
+    // the explanation names both as the file writes them, never by a table index.
+    let dir = tempfile::tempdir().unwrap();
+    let src = "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n[image]\nwidth = 40\nheight = 20\n\
+               [[lights]]\nat = [0, 5, -5]\n\
+               [materials.zinc]\ncolor = [0.6, 0.6, 0.7]\n\
+               [materials.aaa]\ncolor = [1, 0, 0]\n\
+               [[objects]]\nshape = \"sphere\"\ntranslate = [-30, 0, 0]\nmaterial = \"aaa\"\n\
+               [[objects]]\nshape = \"sphere\"\ntranslate = [0, 0, 0]\nmaterial = \"zinc\"\n\
+               [[objects]]\nshape = \"sphere\"\ntranslate = [30, 0, 0]\nmaterial = { color = [0, 1, 0] }\n";
+    std::fs::write(dir.path().join("names.toml"), src).unwrap();
+    // The line of the second `[[objects]]` entry, counted here from the text itself.
+    let line = src.lines().enumerate().filter(|(_, l)| *l == "[[objects]]").nth(1).unwrap().0 + 1;
+    let o = lancer(dir.path(), &["explain", "names.toml", "--pixel", "20,10"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let want = format!("hits object 2 (sphere, names.toml:{line}), material \"zinc\", at t = ");
+    assert!(text.contains(&want), "wanted `{want}` in:\n{text}");
+    let o = lancer(dir.path(), &["explain", "names.toml", "--pixel", "20,10", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).expect("explain --json prints JSON");
+    let hit = &doc["rays"][0]["hit"];
+    assert_eq!(hit["object"], 2, "objects are numbered from 1 in file order");
+    assert_eq!(hit["object_name"], format!("object 2 (sphere, names.toml:{line})"));
+    assert_eq!(hit["material_name"], "zinc");
+}
+
+#[test]
+fn regression_a_mistyped_subcommand_was_taken_for_a_scene_file() {
+    // Found in use: `lancer chek x.toml` said "the subcommand 'x.toml' cannot be used with
+    // '[SCENE]'", `lancer serv` "reading scene serv".
+    let dir = tempfile::tempdir().unwrap();
+    for (typed, meant) in [
+        (&["chek", "x.toml"][..], "check"),
+        (&["explian", "--pixel", "1,1"], "explain"),
+        (&["rendr"], "render"),
+        (&["serv"], "serve"),
+        (&["--width", "8", "-q", "-o", "x.png", "rendr"], "render"),
+    ] {
+        let o = lancer(dir.path(), typed);
+        assert_eq!(o.status.code(), Some(2), "{typed:?}: {}", stderr(&o));
+        let word = typed.iter().find(|w| w.len() > 3 && !w.starts_with('-') && !w.contains('.')).unwrap();
+        assert_eq!(stderr(&o), format!("error: unknown subcommand '{word}' — did you mean '{meant}'?\n"), "{typed:?}");
+    }
+    // Neither a file nor close to a subcommand: the scene is missing, and these are the
+    // subcommands.
+    let o = lancer(dir.path(), &["nothing.toml"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("scene file `nothing.toml` not found"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("the subcommands: render, watch, check, explain"), "{}", stderr(&o));
+    assert!(files(dir.path()).is_empty(), "nothing rendered");
+    // A file of such a name is a scene.
+    std::fs::copy(scene("glass.toml"), dir.path().join("chek")).unwrap();
+    let o = lancer(dir.path(), &["chek", "--width", "8", "-q", "-o", "x.png"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(files(dir.path()), ["chek", "x.png"]);
+}
+
+#[test]
+fn regression_a_file_with_several_errors_told_only_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n[model]\nterms = [\"ambient\", \"specullar\"]\n\
+               [[objects]]\nshape = \"spere\"\n[[objects]]\nshape = \"sphere\"\nmaterial = \"nope\"\n";
+    std::fs::write(dir.path().join("bad.toml"), src).unwrap();
+    for command in ["check", "render"] {
+        let o = lancer(dir.path(), &[command, "bad.toml"]);
+        assert_eq!(o.status.code(), Some(1));
+        let err = stderr(&o);
+        let at: Vec<usize> =
+            ["bad.toml:5:21: unknown term", "bad.toml:7:9: unknown shape", "bad.toml:10:12: unknown material"]
+                .iter()
+                .map(|says| err.find(says).unwrap_or_else(|| panic!("{command} says `{says}`:\n{err}")))
+                .collect();
+        assert!(at.is_sorted() && at[0] == "error: ".len(), "in file order, the first after `error: `:\n{err}");
+    }
+}
+
+#[test]
+fn regression_terms_flag_errors_suggested_the_scene_file_syntax() {
+    // `--terms diffuse:lambert:roughness=3` was told `{ term = "diffuse", variant = ... }`.
+    let dir = tempfile::tempdir().unwrap();
+    for given in ["ambient,diffuse:lambert:roughness=3", "ambient,diffuse:roughness=3"] {
+        let o = lancer(dir.path(), &["check", "--terms", given]);
+        assert_eq!(o.status.code(), Some(1));
+        let err = stderr(&o);
+        assert!(
+            err.contains("variant oren-nayar of `diffuse` takes `roughness`: diffuse:oren-nayar:roughness=3"),
+            "{given}: {err}"
+        );
+        assert!(!err.contains("term = "), "{given}: {err}");
+    }
+}
+
+#[test]
+fn regression_a_part_without_o_was_written_as_render_png() {
+    // `--tile` without `-o` wrote a part file named `render.png`, which no viewer opens.
+    let dir = tempfile::tempdir().unwrap();
+    for part in ["0/2", "1/2"] {
+        let o = lancer(dir.path(), &["render", "--width", "32", "--tile", part, "-q"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(files(dir.path()), ["render-0.lpart", "render-1.lpart"]);
+    let o = lancer(dir.path(), &["merge", "render-0.lpart", "render-1.lpart", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(image::open(dir.path().join("render.png")).unwrap().width(), 32);
+    // Named as an image, a part is refused before the render.
+    let o = lancer(dir.path(), &["render", "--width", "32", "--tile", "0/2", "-o", "part.png"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("with --tile, -o names a part file"), "{}", stderr(&o));
+    assert!(!dir.path().join("part.png").exists());
+}
+
+#[cfg(unix)]
+#[test]
+fn regression_o_dev_null_was_refused_for_its_missing_extension() {
+    // `-o /dev/null` (to time a render, or check it runs) said the output must end in .png; and
+    // the temporary file renamed over the path would have replaced the device.
+    use std::os::unix::fs::FileTypeExt;
+    let dir = tempfile::tempdir().unwrap();
+    for args in [
+        &["render", "--width", "16", "-o", "/dev/null", "-q"][..],
+        &["render", "--width", "16", "-o", "/dev/null", "--stats-json", "/dev/null", "-q"],
+        &["render", "--width", "16", "--tile", "0/1", "-o", "/dev/null", "-q"],
+    ] {
+        let o = lancer(dir.path(), args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    }
+    assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device(), "/dev/null is still a device");
+    assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
+    // A pipe gets the PNG as it is written.
+    let o = lancer(dir.path(), &["render", "--width", "16", "-o", "/dev/stdout", "-q"]);
+    assert!(o.status.success() && o.stdout.starts_with(b"\x89PNG"), "{}", stderr(&o));
+    assert_eq!(image::load_from_memory(&o.stdout).unwrap().width(), 16);
+}
+
+#[test]
+fn regression_shipped_scenes_warned_on_their_own() {
+    // Found in use: `lancer check` warned about four shipped scenes (refraction listed with
+    // nothing transparent; a lens reaching into its stand), teaching that warnings are noise.
+    let root: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "scenes"].iter().collect();
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let p = entry.unwrap().path();
+            if p.is_dir() {
+                walk(&p, out);
+            } else if p.extension().is_some_and(|e| e == "toml") {
+                out.push(p);
+            }
+        }
+    }
+    let mut scenes = Vec::new();
+    walk(&root, &mut scenes);
+    assert!(scenes.len() > 20, "{} scenes", scenes.len());
+    let dir = tempfile::tempdir().unwrap();
+    let noisy: Vec<String> = scenes
+        .iter()
+        .filter_map(|path| {
+            let o = lancer(dir.path(), &["check", &path.display().to_string()]);
+            let said = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+            (!o.status.success() || said.contains("warning:") || !said.ends_with("\n0 warnings\n")).then_some(said)
+        })
+        .collect();
+    assert!(noisy.is_empty(), "{}", noisy.join("\n"));
 }

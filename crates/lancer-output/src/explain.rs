@@ -20,6 +20,12 @@ pub struct Report<'a> {
     pub pipeline: &'a Pipeline,
     /// What the render found.
     pub explanation: &'a PixelExplanation,
+    /// Each object named as the file has it, in file order (`object 3 (sphere, scene.toml:45)`);
+    /// an object past the list is named by its number and shape.
+    pub objects: &'a [String],
+    /// Each material's name in the prepared table's order (`glass`, or `object 2` for an
+    /// object's own); one past the list is the default material.
+    pub materials: &'a [String],
 }
 
 fn v(v: Vec3) -> String {
@@ -32,6 +38,23 @@ fn p(p: DVec3) -> String {
 }
 
 impl Report<'_> {
+    /// The object numbered `number` (from 1, file order), as the file names it.
+    fn object_name(&self, number: u32, shape: &str) -> String {
+        match (number as usize).checked_sub(1).and_then(|i| self.objects.get(i)) {
+            Some(label) => label.clone(),
+            None => format!("object {number} ({shape})"),
+        }
+    }
+
+    /// The material numbered `number` (from 1, the prepared table), as the file names it:
+    /// `material "glass"`, or the default material for objects that name none.
+    fn material_name(&self, number: u32) -> String {
+        match (number as usize).checked_sub(1).and_then(|i| self.materials.get(i)) {
+            Some(name) => format!("material \"{name}\""),
+            None => "the default material".to_owned(),
+        }
+    }
+
     fn term_name(&self, term: usize) -> &str {
         &self.pipeline.terms[term].name
     }
@@ -125,10 +148,9 @@ impl Report<'_> {
         };
         let _ = writeln!(
             out,
-            "{pad}hits object {} ({}), material {}, at t = {:.4}, {}: I = {}, N = {}, Col_Ω = {}",
-            hit.object,
-            hit.shape,
-            hit.material,
+            "{pad}hits {}, {}, at t = {:.4}, {}: I = {}, N = {}, Col_Ω = {}",
+            self.object_name(hit.object, hit.shape),
+            self.material_name(hit.material),
             hit.t,
             if hit.front { "from outside" } else { "from inside" },
             p(hit.point),
@@ -242,8 +264,10 @@ impl Report<'_> {
             credited_to: self.credit_name(ray),
             hit: ray.hit.as_ref().map(|h| JsonHit {
                 object: h.object,
+                object_name: self.object_name(h.object, h.shape),
                 shape: h.shape,
                 material: h.material,
+                material_name: (h.material as usize).checked_sub(1).and_then(|i| self.materials.get(i)).cloned(),
                 t: h.t,
                 point: h.point.to_array(),
                 normal: h.normal.to_array(),
@@ -336,9 +360,15 @@ struct JsonRay<'a> {
 
 #[derive(Serialize)]
 struct JsonHit {
+    /// From 1, in file order.
     object: u32,
+    /// As `explain`'s text names it: `object 3 (sphere, scene.toml:45)`.
+    object_name: String,
     shape: &'static str,
+    /// From 1, in the order of `materials` ([`Report::materials`]).
     material: u32,
+    /// The material's name in the file (`null` for the default material).
+    material_name: Option<String>,
     t: f32,
     /// In world space.
     point: [f64; 3],

@@ -8,7 +8,7 @@ use glam::{Affine3A, DVec3, Mat3, Vec3};
 use lancer_core::{
     Camera, ImageSettings, Light, Material, MaterialOf, Meta, Pattern, Position, Scene, Texture, Transform,
 };
-use lancer_shading::{ParamValue, Params, Pipeline, Registry};
+use lancer_shading::{NamedShadow, NamedTerm, ParamValue, Params, Pipeline, Registry};
 use lancer_shapes::{CsgNode, CsgOp, Mesh, MeshError, Shape};
 use toml::Spanned;
 
@@ -16,7 +16,7 @@ use crate::doc::{
     ColorDoc, Exact, MaterialDoc, MaterialRef, ModelDoc, NamedDoc, Num, ObjectDoc, ObjectsDoc, OperandDoc, PatternDoc,
     Scale, SceneDoc,
 };
-use crate::error::Lines;
+use crate::error::{Errors, Lines};
 use crate::{LoadError, LoadErrorKind, Place, Warning};
 
 /// A loaded scene file: the scene and the lighting model its `[model]` describes.
@@ -88,7 +88,8 @@ impl<'a> Ctx<'a> {
     fn syntax(&self, e: toml::de::Error, parsed: &str) -> LoadError {
         let message = e.message().trim_end();
         let span = e.span().map(|span| self.shifted(back_to_the_line_it_belongs_to(parsed, span, message)));
-        let mut message = with_did_you_mean(message);
+        let at = e.span().map_or(parsed.len(), |span| span.start.min(parsed.len()));
+        let mut message = in_plain_words(message, parsed, at).unwrap_or_else(|| with_did_you_mean(message));
         if message.starts_with("missing comma between array elements") {
             message.push_str(", or the `]` that closes the array");
         }
@@ -99,6 +100,14 @@ impl<'a> Ctx<'a> {
     fn scan(&self, batches: bool) -> Result<crate::scan::Layout, LoadError> {
         crate::scan::scan(self.src, batches).map_err(|e| self.err(e.span, LoadErrorKind::Syntax(e.message)))
     }
+}
+
+/// The toml crate's error reading `src`, the whole text of `file`, located and worded as a scene
+/// file's syntax errors are (an unclosed bracket placed at the end of its line, an unknown key
+/// with the nearest known one): for other TOML files read with serde (`lancer sheet`'s).
+pub fn toml_error(file: &str, src: &str, e: toml::de::Error) -> LoadError {
+    let lines = Lines::new(src);
+    Ctx::new(file, src, &lines).syntax(e, src)
 }
 
 /// An unclosed bracket or a missing comma is found at the start of the next line; the place to
@@ -128,6 +137,36 @@ fn back_to_the_line_it_belongs_to(src: &str, span: Range<usize>, message: &str) 
         end = line_start - 1;
     };
     found.map_or(span, |e| e..e)
+}
+
+/// The toml crate's words for two slips of a first TOML file, said the way to fix them: a table
+/// header `[lights]` where each light is an entry `[[lights]]` ("invalid type: map, expected a
+/// sequence"), and a number without a digit before or after its point, `.8` or `8.` ("invalid
+/// mantissa", "invalid fraction"). `at` is the error's place in `parsed`.
+fn in_plain_words(message: &str, parsed: &str, at: usize) -> Option<String> {
+    let (before, at) = parsed.split_at(at);
+    if message.starts_with("invalid type: map, expected a sequence") {
+        let name = at.strip_prefix('[').filter(|r| !r.starts_with('['))?.split(']').next()?.trim();
+        let entry = match name {
+            "lights" => "each light is an array entry `[[lights]]`".to_owned(),
+            "objects" => "each object is an array entry `[[objects]]`".to_owned(),
+            _ => format!("a list of tables is written `[[{name}]]`, once before each entry"),
+        };
+        return Some(format!("`[{name}]` is one table; {entry}"));
+    }
+    // The number as written: a sign, digits, a point, digits, an exponent.
+    let number: String =
+        at.chars().take_while(|c| c.is_ascii_digit() || matches!(c, '.' | '-' | '+' | 'e' | 'E' | '_')).collect();
+    if message.starts_with("invalid mantissa") && number.trim_start_matches(['-', '+']).starts_with('.') {
+        let sign = &number[..number.len() - number.trim_start_matches(['-', '+']).len()];
+        return Some(format!("a number needs a digit before the point: {sign}0{}", &number[sign.len()..]));
+    }
+    if message.starts_with("invalid fraction") && before.ends_with('.') {
+        // The error stands after the point; the number starts before it.
+        let digits = before.len() - before.trim_end_matches(|c: char| c.is_ascii_digit() || c == '.').len();
+        return Some(format!("a number needs a digit after the point: {}0", &before[before.len() - digits..]));
+    }
+    None
 }
 
 /// serde's "unknown field `shiny`, expected one of `color`, ..." with the nearest known name.
@@ -225,10 +264,14 @@ pub fn load_scene_within(
     } else {
         std::borrow::Cow::Owned(blanked(src, &layout.object_batches))
     };
+    // A TOML syntax error, or a key the file format does not have or of the wrong type, stops
+    // the toml crate at the first; the errors past it (names, values the builder checks, files)
+    // are gathered: up to MAX_ERRORS of them are told together, in file order.
     let doc: SceneDoc = toml::from_str(&rest).map_err(|e| cx.syntax(e, &rest))?;
     drop(rest);
+    let mut errors = Errors::default();
     let pipeline = match &doc.model {
-        Some(m) => build_pipeline(&cx, m, registry, None)?,
+        Some(m) => errors.keep(build_pipeline(&cx, m, registry, None)).unwrap_or_else(|| registry.default_pipeline()),
         None => registry.default_pipeline(),
     };
     let mut world = hecs::World::new();
@@ -249,8 +292,14 @@ pub fn load_scene_within(
         ..Places::default()
     };
     let mut named: HashMap<&str, hecs::Entity> = HashMap::new();
-    for (name, m) in &doc.materials {
-        let m = material(&cx, m, &mut textures, &mut warnings)?;
+    // Materials in file order (the document's table is sorted by name): the prepared table, the
+    // studio's panels and `explain` number them as the file lists them, as objects are.
+    let mut in_file_order: Vec<_> = doc.materials.iter().collect();
+    in_file_order.sort_by_key(|(name, _)| name.span().start);
+    for (name, m) in in_file_order {
+        // A material in error still takes its name, so that the objects using it are not
+        // told they name an unknown one.
+        let m = errors.keep(material(&cx, m, &mut textures, &mut warnings)).unwrap_or_default();
         named.insert(name.get_ref(), world.spawn((m,)));
         places.materials.push(name.get_ref().clone());
     }
@@ -268,7 +317,8 @@ pub fn load_scene_within(
         });
     }
     let mut used: std::collections::HashSet<&str> = std::collections::HashSet::new();
-    let mut object = |cx: &Ctx<'_>, o: &Spanned<ObjectDoc>| -> Result<(), LoadError> {
+    // An object's shape, material and placement are each checked, their errors all kept.
+    let mut object = |cx: &Ctx<'_>, o: &Spanned<ObjectDoc>, errors: &mut Errors| {
         places.objects.push(cx.place(o.span()));
         let obj = o.get_ref();
         let fields = ShapeFields {
@@ -281,49 +331,35 @@ pub fn load_scene_within(
             at: o.span(),
         };
         let shape = if obj.shape.get_ref() == "mesh" {
-            let path = obj.path.as_ref().ok_or_else(|| {
-                cx.err(
-                    o.span(),
-                    LoadErrorKind::Syntax("a mesh needs `path = \"file.obj\"` (relative to the scene file)".into()),
-                )
-            })?;
-            for (key, span) in
-                [("minor", obj.minor.as_ref().map(|x| x.span())), ("op", obj.op.as_ref().map(|x| x.span()))]
-            {
-                if let Some(span) = span {
-                    return Err(cx.err(span, LoadErrorKind::Syntax(format!("`{key}` does not apply to a mesh"))));
-                }
-            }
-            Shape::Mesh(meshes.load(cx, path, textures.resolve, &mut warnings)?)
+            errors.keep(mesh_shape(cx, o, &mut meshes, textures.resolve, &mut warnings))
         } else {
-            build_shape(cx, &fields)?
+            errors.keep(build_shape(cx, &fields))
         };
         let mat = match obj.material.as_ref().map(|m| (m.span(), m.get_ref())) {
-            None => None,
+            None => Some(None),
             Some((_, MaterialRef::Inline(m))) => {
-                let m = material(cx, m, &mut textures, &mut warnings)?;
+                let m = errors.keep(material(cx, m, &mut textures, &mut warnings));
                 places.materials.push(format!("object {}", places.objects.len()));
-                Some(world.spawn((m,)))
+                m.map(|m| Some(world.spawn((m,))))
             }
-            Some((span, MaterialRef::Named(name))) => Some(
-                *named
-                    .get_key_value(name.as_str())
-                    .map(|(&key, entity)| {
-                        used.insert(key);
-                        entity
-                    })
-                    .ok_or_else(|| {
-                        let known: Vec<String> = doc.materials.keys().map(|k| k.get_ref().clone()).collect();
-                        cx.err(
-                            span,
-                            LoadErrorKind::UnknownMaterial {
-                                name: name.clone(),
-                                nearest: lancer_shading::nearest(name, known.iter().map(String::as_str)),
-                                known,
-                            },
-                        )
-                    })?,
-            ),
+            Some((span, MaterialRef::Named(name))) => match named.get_key_value(name.as_str()) {
+                Some((&key, &entity)) => {
+                    used.insert(key);
+                    Some(Some(entity))
+                }
+                None => {
+                    let known: Vec<String> = doc.materials.keys().map(|k| k.get_ref().clone()).collect();
+                    errors.push(cx.err(
+                        span,
+                        LoadErrorKind::UnknownMaterial {
+                            name: name.clone(),
+                            nearest: lancer_shading::nearest(name, known.iter().map(String::as_str)),
+                            known,
+                        },
+                    ));
+                    None
+                }
+            },
         };
         // The translation in f64: prepare rounds it once the camera's position is taken off.
         let linear = placement(obj.scale.as_ref(), obj.rotate, None).matrix3;
@@ -332,29 +368,51 @@ pub fn load_scene_within(
         if lancer_shapes::invertible(&transform.world_from_object).is_none() {
             let span = obj.scale.as_ref().map_or(o.span(), |s| s.span());
             let msg = "this placement (scale, rotate, translate) cannot be inverted in single precision";
-            return Err(cx.err(span, LoadErrorKind::Syntax(msg.into())));
+            errors.push(cx.err(span, LoadErrorKind::Syntax(msg.into())));
+            return;
         }
-        match mat {
-            Some(m) => world.spawn((shape, transform, MaterialOf(m))),
-            None => world.spawn((shape, transform)),
-        };
-        Ok(())
+        match (shape, mat) {
+            (Some(shape), Some(Some(m))) => {
+                world.spawn((shape, transform, MaterialOf(m)));
+            }
+            (Some(shape), Some(None)) => {
+                world.spawn((shape, transform));
+            }
+            // In error: the load fails, with this object's errors among the others.
+            _ => {}
+        }
     };
     for o in &doc.objects {
-        object(&cx, o)?;
+        object(&cx, o, &mut errors);
     }
     for batch in &layout.object_batches {
         let cx = Ctx { offset: batch.start, ..cx };
         let text = &src[batch.clone()];
-        let doc: ObjectsDoc = toml::from_str(text).map_err(|e| cx.syntax(e, text))?;
-        for o in &doc.objects {
-            object(&cx, o)?;
+        match toml::from_str::<ObjectsDoc>(text) {
+            Ok(doc) => {
+                for o in &doc.objects {
+                    object(&cx, o, &mut errors);
+                }
+            }
+            // The toml crate stops at its first error: the batches after it are not read.
+            Err(e) => {
+                errors.push(cx.syntax(e, text));
+                break;
+            }
         }
     }
 
     let cam = doc.camera.get_ref();
     let camera = Camera::look_at(dvec3(cam.from), dvec3(cam.to), vec3(cam.up), cam.fov.0)
-        .map_err(|e| cx.err(doc.camera.span(), LoadErrorKind::Camera(e.to_string())))?;
+        .map_err(|e| cx.err(doc.camera.span(), LoadErrorKind::Camera(e.to_string())));
+    let camera = match camera {
+        Ok(camera) => camera,
+        Err(e) => {
+            errors.push(e);
+            return Err(errors.into_error().expect("one error at least"));
+        }
+    };
+    errors.or(())?;
     let image = ImageSettings {
         width: doc.image.width,
         height: doc.image.height,
@@ -548,6 +606,29 @@ fn vec3(v: [Num; 3]) -> Vec3 {
 
 fn dvec3(v: [Exact; 3]) -> DVec3 {
     DVec3::new(v[0].0, v[1].0, v[2].0)
+}
+
+/// The mesh object `o` describes.
+fn mesh_shape(
+    cx: &Ctx<'_>,
+    o: &Spanned<ObjectDoc>,
+    meshes: &mut Meshes,
+    resolve: Resolver<'_>,
+    warnings: &mut Vec<Warning>,
+) -> Result<Shape, LoadError> {
+    let obj = o.get_ref();
+    let path = obj.path.as_ref().ok_or_else(|| {
+        cx.err(
+            o.span(),
+            LoadErrorKind::Syntax("a mesh needs `path = \"file.obj\"` (relative to the scene file)".into()),
+        )
+    })?;
+    for (key, span) in [("minor", obj.minor.as_ref().map(|x| x.span())), ("op", obj.op.as_ref().map(|x| x.span()))] {
+        if let Some(span) = span {
+            return Err(cx.err(span, LoadErrorKind::Syntax(format!("`{key}` does not apply to a mesh"))));
+        }
+    }
+    Ok(Shape::Mesh(meshes.load(cx, path, resolve, warnings)?))
 }
 
 /// Meshes loaded so far, each file once (objects that share a file share the mesh).
@@ -854,6 +935,29 @@ fn model_err(cx: &Ctx<'_>, entry: &Spanned<NamedDoc>, e: lancer_shading::ModelEr
     cx.err(span.filter(|s| !s.is_empty()).unwrap_or_else(|| name_span(entry)), LoadErrorKind::Model(e))
 }
 
+/// The shadow model `entry` names.
+fn shadow_model(cx: &Ctx<'_>, entry: &Spanned<NamedDoc>, registry: &Registry) -> Result<NamedShadow, LoadError> {
+    let doc = entry.get_ref();
+    if doc.key.as_deref() == Some("term") || doc.variant.is_some() {
+        let at = doc.variant.as_ref().map(|v| v.span()).filter(|s| !s.is_empty()).unwrap_or_else(|| name_span(entry));
+        return Err(cx.err(
+            at,
+            LoadErrorKind::Syntax("a shadow model is named with `model = \"...\"` and has no variant".into()),
+        ));
+    }
+    registry.build_shadow(doc.name.get_ref(), params(cx, doc)?).map_err(|e| model_err(cx, entry, e))
+}
+
+/// The term `entry` names.
+fn term(cx: &Ctx<'_>, entry: &Spanned<NamedDoc>, registry: &Registry) -> Result<NamedTerm, LoadError> {
+    let doc = entry.get_ref();
+    if doc.key.as_deref() == Some("model") {
+        return Err(cx.err(name_span(entry), LoadErrorKind::Syntax("a term is named with `term = \"...\"`".into())));
+    }
+    let variant = doc.variant.as_ref().map(|v| v.get_ref().as_str());
+    registry.build_term(doc.name.get_ref(), variant, params(cx, doc)?).map_err(|e| model_err(cx, entry, e))
+}
+
 /// The pipeline `m` describes; what it leaves out comes from `base`, else has its default.
 fn build_pipeline(
     cx: &Ctx<'_>,
@@ -866,31 +970,20 @@ fn build_pipeline(
         None => (None, None, None),
     };
     let max_depth = m.max_depth.or(base_depth).unwrap_or(crate::doc::DEFAULT_DEPTH);
+    // The shadow model's and each term's errors, all kept.
+    let mut errors = Errors::default();
+    let default_shadows = || {
+        registry
+            .build_shadow(lancer_shading::shadows::DEFAULT, Params::default())
+            .expect("the default shadow model exists")
+    };
     let shadows = match &m.shadows {
-        None => base_shadows.unwrap_or_else(|| {
-            registry
-                .build_shadow(lancer_shading::shadows::DEFAULT, Params::default())
-                .expect("the default shadow model exists")
-        }),
-        Some(entry) => {
-            let doc = entry.get_ref();
-            if doc.key.as_deref() == Some("term") || doc.variant.is_some() {
-                let at = doc
-                    .variant
-                    .as_ref()
-                    .map(|v| v.span())
-                    .filter(|s| !s.is_empty())
-                    .unwrap_or_else(|| name_span(entry));
-                return Err(cx.err(
-                    at,
-                    LoadErrorKind::Syntax("a shadow model is named with `model = \"...\"` and has no variant".into()),
-                ));
-            }
-            registry.build_shadow(doc.name.get_ref(), params(cx, doc)?).map_err(|e| model_err(cx, entry, e))?
-        }
+        None => base_shadows.unwrap_or_else(default_shadows),
+        Some(entry) => errors.keep(shadow_model(cx, entry, registry)).unwrap_or_else(default_shadows),
     };
     let terms = match &m.terms {
         None => {
+            errors.or(())?;
             return Pipeline::new(max_depth, shadows, base_terms.unwrap_or_else(|| registry.default_terms()))
                 .map_err(|e| cx.err(0..0, LoadErrorKind::Model(e)));
         }
@@ -898,15 +991,11 @@ fn build_pipeline(
     };
     let mut built = Vec::with_capacity(terms.len());
     for entry in terms {
-        let doc = entry.get_ref();
-        if doc.key.as_deref() == Some("model") {
-            return Err(cx.err(name_span(entry), LoadErrorKind::Syntax("a term is named with `term = \"...\"`".into())));
+        if let Some(t) = errors.keep(term(cx, entry, registry)) {
+            built.push(t);
         }
-        let variant = doc.variant.as_ref().map(|v| v.get_ref().as_str());
-        built.push(
-            registry.build_term(doc.name.get_ref(), variant, params(cx, doc)?).map_err(|e| model_err(cx, entry, e))?,
-        );
     }
+    errors.or(())?;
     Pipeline::new(max_depth, shadows, built).map_err(|e| {
         let dup = terms
             .iter()

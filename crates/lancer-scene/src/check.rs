@@ -34,12 +34,21 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
             message: format!("the camera is inside {}: {see}", object(i)),
         });
     }
+    let shadows = pipeline.shadows.name.as_str();
     for (k, light) in prepared.lights.iter().enumerate() {
         for i in (0..geometry.objects.len()).filter(|&i| geometry.objects[i].contains(light.at)) {
-            let through = if material(i).alpha > 0.0 {
-                "its light reaches outside only through transparent shadows"
-            } else {
-                "it lights nothing outside that object"
+            // What the shadow model makes of the surface around the light.
+            let through = match (shadows, material(i).alpha > 0.0) {
+                ("none", _) => {
+                    "with `none` shadows nothing blocks its light, so it lights the scene outside as if the \
+                     object were not there"
+                }
+                (_, false) => "it lights nothing outside that object",
+                ("hard", true) => {
+                    "with `hard` shadows it lights nothing outside it either: a shadow ray stops at any surface, \
+                     transparent or not (`transmissive` shadows let light through)"
+                }
+                (_, true) => "its light reaches outside only through transparent shadows",
             };
             out.push(Warning {
                 place: places.lights.get(k).cloned(),
@@ -66,14 +75,7 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
     for term in &pipeline.terms {
         let used = (0..geometry.objects.len()).any(|i| term.term.acts_on(material(i)));
         if !used && !geometry.objects.is_empty() && places.chosen_terms {
-            out.push(Warning {
-                place: None,
-                message: format!(
-                    "term `{}` adds nothing to this scene: the parameters it reads are zero on every material \
-                     (`lancer terms` says which it reads)",
-                    term.name
-                ),
-            });
+            out.push(Warning { place: None, message: idle(term, (0..geometry.objects.len()).map(material)) });
         }
     }
     if pipeline.shadows.name == "soft" && !prepared.lights.is_empty() && prepared.lights.iter().all(|l| l.size <= 0.0) {
@@ -103,4 +105,44 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
         });
     }
     out
+}
+
+/// Why `term` adds nothing on any of `materials`: for each material, the term's own reason (a
+/// highlight's infinite exponent...) or the fields it reads that are zero there, each reason
+/// said once.
+fn idle<'m>(term: &lancer_shading::NamedTerm, materials: impl Iterator<Item = &'m lancer_core::Material>) -> String {
+    let mut reasons: Vec<String> = Vec::new();
+    for m in materials {
+        let reason = term.term.why_idle(m).unwrap_or_else(|| {
+            let zero: Vec<String> =
+                term.reads.iter().filter(|f| is_zero(m, f)).map(|f| format!("`{f}` is 0")).collect();
+            match zero.is_empty() {
+                true => format!("the fields it reads (`{}`) leave it nothing to add", term.reads.join("`, `")),
+                false => zero.join(" and "),
+            }
+        });
+        if !reasons.contains(&reason) {
+            reasons.push(reason);
+        }
+    }
+    format!(
+        "term `{}` adds nothing to this scene: on every material, {} (`lancer terms` lists what each term reads)",
+        term.name,
+        reasons.join(", or ")
+    )
+}
+
+/// Whether the material field `field` (as [`lancer_shading::MATERIAL_FIELDS`] names it) is
+/// zero on `m`; a patterned colour is not.
+fn is_zero(m: &lancer_core::Material, field: &str) -> bool {
+    match field {
+        "ambi" => m.ambi == 0.0,
+        "diff" => m.diff == 0.0,
+        "spec" => m.spec == 0.0,
+        "shine" => m.shine == 0.0,
+        "alpha" => m.alpha == 0.0,
+        "color" => m.color == glam::Vec3::ZERO && matches!(m.pattern, lancer_core::Pattern::Solid),
+        // `n` is at least 1.
+        _ => false,
+    }
 }

@@ -55,13 +55,23 @@ pub struct LoadError {
     pub line: usize,
     /// 1-based column, in characters.
     pub column: usize,
-    /// The source line, for display.
+    /// The source line, for display: the part around the place when the line is long.
     pub source_line: String,
+    /// The column of `source_line`'s first character: 1 unless a long line was cut.
+    pub source_column: usize,
     /// How many characters to underline from `column`.
     pub width: usize,
     /// What went wrong (boxed: errors travel through `Result`s on every path).
     pub kind: Box<LoadErrorKind>,
+    /// The file's other errors after this one, in file order, when loading found several: at
+    /// most [`MAX_ERRORS`] shown in all, this one included.
+    pub more: Vec<LoadError>,
+    /// How many errors past [`MAX_ERRORS`] were found but are not shown ("and N more").
+    pub unshown: usize,
 }
+
+/// The most errors of one file shown together; the rest are counted.
+pub const MAX_ERRORS: usize = 10;
 
 /// A place in a scene or model file.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -110,6 +120,11 @@ impl Lines {
         (line, self.starts[line - 1])
     }
 
+    /// Where line `line` (1-based) of `src` ends: its newline, or the end of the text.
+    fn line_end(&self, src: &str, line: usize) -> usize {
+        self.starts.get(line).map_or(src.len(), |next| next - 1)
+    }
+
     /// The characters in the first `at` bytes of `src` (`at` on a character boundary).
     fn chars_before(&self, src: &str, at: usize) -> usize {
         let block = at / CHARS_EVERY;
@@ -127,6 +142,26 @@ impl Lines {
             column: self.chars_before(src, at) - self.chars_before(src, line_start) + 1,
         }
     }
+}
+
+/// Bytes of a long source line kept on each side of an error's place: more than the characters
+/// shown around it take (four bytes at most each), so what is shown is the same.
+const KEPT: usize = 1024;
+
+/// The character boundary of `s` at or before `at`.
+fn floor_boundary(s: &str, mut at: usize) -> usize {
+    while !s.is_char_boundary(at) {
+        at -= 1;
+    }
+    at
+}
+
+/// The character boundary of `s` at or after `at`.
+fn ceil_boundary(s: &str, mut at: usize) -> usize {
+    while !s.is_char_boundary(at) {
+        at += 1;
+    }
+    at
 }
 
 /// The characters that start in `bytes` (every byte but UTF-8 continuation bytes).
@@ -160,9 +195,10 @@ impl std::fmt::Display for Warning {
 }
 
 impl LoadError {
-    /// An error at byte range `span` of `src` (the start of the file when `None`).
-    #[cfg(test)]
-    pub(crate) fn at(file: &str, src: &str, span: Option<Range<usize>>, kind: LoadErrorKind) -> LoadError {
+    /// An error at byte range `span` of `src`, the text of `file` (the start of the file when
+    /// `None`): for other TOML files that report their errors as scene files do (`lancer
+    /// sheet`'s sheet files).
+    pub fn at(file: &str, src: &str, span: Option<Range<usize>>, kind: LoadErrorKind) -> LoadError {
         LoadError::located(file, src, &Lines::new(src), span, kind)
     }
 
@@ -178,17 +214,83 @@ impl LoadError {
         let span = span.unwrap_or(0..0);
         let start = span.start.min(src.len());
         let place = lines.place(file, src, start);
-        let (_, line_start) = lines.line_of(start);
-        let line_end = src[start..].find('\n').map_or(src.len(), |i| start + i);
-        let source_line = src[line_start..line_end].trim_end_matches('\r').to_owned();
-        let end = span.end.clamp(start, line_end);
+        let (line, line_start) = lines.line_of(start);
+        let line_end = lines.line_end(src, line);
+        // A long line is kept around the place only: each error of a file of one huge line
+        // (generated, or hostile) costs the same as on a short one.
+        let from = floor_boundary(src, start.saturating_sub(KEPT).max(line_start));
+        let to = ceil_boundary(src, (start + KEPT).min(line_end));
+        let mut source_line = &src[from..to];
+        if to == line_end {
+            source_line = source_line.trim_end_matches('\r');
+        }
+        let end = span.end.clamp(start, to);
         LoadError {
             file: place.file,
             line: place.line,
             column: place.column,
             width: src[start..end].chars().count().max(1),
-            source_line,
+            source_line: source_line.to_owned(),
+            source_column: lines.chars_before(src, from) - lines.chars_before(src, line_start) + 1,
             kind: Box::new(kind),
+            more: Vec::new(),
+            unshown: 0,
+        }
+    }
+
+    /// This error and the others it carries, in file order.
+    pub fn all(&self) -> impl Iterator<Item = &LoadError> {
+        std::iter::once(self).chain(&self.more)
+    }
+}
+
+/// The errors found in one file so far: the first [`MAX_ERRORS`] in file order kept, the others
+/// counted (a file of a million bad objects holds ten).
+#[derive(Default)]
+pub(crate) struct Errors {
+    kept: Vec<LoadError>,
+    unshown: usize,
+}
+
+impl Errors {
+    /// Adds `e` (and the errors it carries).
+    pub(crate) fn push(&mut self, mut e: LoadError) {
+        let more = std::mem::take(&mut e.more);
+        self.unshown += std::mem::take(&mut e.unshown);
+        for e in std::iter::once(e).chain(more) {
+            self.kept.push(e);
+            if self.kept.len() > MAX_ERRORS {
+                // The last in file order goes (of two at one place, the one found later).
+                let key = |i: usize| (self.kept[i].line, self.kept[i].column, i);
+                let last = (0..self.kept.len()).max_by_key(|&i| key(i)).expect("more than one");
+                self.kept.remove(last);
+                self.unshown += 1;
+            }
+        }
+    }
+
+    /// `result`'s value, or `None` with its error added.
+    pub(crate) fn keep<T>(&mut self, result: Result<T, LoadError>) -> Option<T> {
+        result.map_err(|e| self.push(e)).ok()
+    }
+
+    /// The errors as one: the first in file order, carrying the others. `None` when there are
+    /// none.
+    pub(crate) fn into_error(mut self) -> Option<LoadError> {
+        // Stable: two errors at one place keep the order they were found in.
+        self.kept.sort_by_key(|e| (e.line, e.column));
+        let mut kept = self.kept.into_iter();
+        let mut first = kept.next()?;
+        first.more = kept.collect();
+        first.unshown = self.unshown;
+        Some(first)
+    }
+
+    /// `Err` with the errors when there are any, else `Ok(value)`.
+    pub(crate) fn or<T>(self, value: T) -> Result<T, LoadError> {
+        match self.into_error() {
+            Some(e) => Err(e),
+            None => Ok(value),
         }
     }
 }
@@ -199,10 +301,10 @@ impl std::fmt::Display for LoadError {
         if !self.source_line.is_empty() {
             // A long line (a generated file's, a hostile one's) is shown around the place only.
             const AROUND: usize = 60;
-            let (at, width) = (self.column - 1, self.width.min(80));
+            let (at, width) = (self.column - self.source_column, self.width.min(80));
             let from = at.saturating_sub(AROUND);
             let to = at + width + AROUND;
-            let (before, after) = (from > 0, self.source_line.chars().nth(to).is_some());
+            let (before, after) = (from + self.source_column > 1, self.source_line.chars().nth(to).is_some());
             let shown: String = self.source_line.chars().skip(from).take(to - from).collect();
             let gutter = self.line.to_string().len();
             write!(
@@ -216,6 +318,14 @@ impl std::fmt::Display for LoadError {
                 " ".repeat(at - from + usize::from(before)),
                 "^".repeat(width)
             )?;
+        }
+        // The file's other errors, each as it would be shown alone, a blank line between.
+        for e in &self.more {
+            write!(f, "\n\n{e}")?;
+        }
+        if self.unshown > 0 {
+            let s = if self.unshown == 1 { "" } else { "s" };
+            write!(f, "\n\nand {} more error{s} (the first {MAX_ERRORS} are shown)", self.unshown)?;
         }
         Ok(())
     }

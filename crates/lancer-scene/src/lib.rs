@@ -12,7 +12,7 @@ mod texture;
 
 pub use build::{
     Limits, Loaded, MAX_TRIANGLES, Places, Resolver, load_model, load_model_over, load_scene, load_scene_with,
-    load_scene_within,
+    load_scene_within, toml_error,
 };
 pub use check::check;
 pub use error::{LoadError, LoadErrorKind, Place, Warning};

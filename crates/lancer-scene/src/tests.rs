@@ -673,3 +673,137 @@ fn regression_a_polygon_of_ten_million_corners_is_refused_by_default() {
     assert!(e.contains("m.obj:4:20000007: too many triangles"), "{}", &e[..e.len().min(300)]);
     assert!(e.contains("expected at most 10000000 triangles; raise it with --max-triangles"));
 }
+
+#[test]
+fn regression_only_the_first_error_of_a_file_was_told_now_each_is_in_file_order() {
+    // Found in use: a file with three mistakes took three runs to fix, one error at a time.
+    let src = format!(
+        "{CAMERA}[model]\nterms = [\"ambient\", {{ term = \"diffuse\", roughnes = 3 }}, \"specularr\"]\n\
+         [materials.red]\ncolor = {{ pattern = \"chequer\" }}\n\
+         [[objects]]\nshape = \"sphere\"\nmaterial = \"blue\"\n\
+         [[objects]]\nshape = \"spere\"\nmaterial = \"red\"\n"
+    );
+    let e = err(&src);
+    let all: Vec<(usize, usize)> = e.all().map(|e| (e.line, e.column)).collect();
+    let want = [
+        pos(&src, "roughnes"),
+        pos(&src, "\"specularr"),
+        pos(&src, "\"chequer"),
+        pos(&src, "\"blue"),
+        pos(&src, "\"spere"),
+    ];
+    assert_eq!(all, want, "{e}");
+    let text = e.to_string();
+    for says in [
+        "has no parameter `roughnes`",
+        "unknown term `specularr`",
+        "unknown pattern `chequer`",
+        "unknown material `blue`",
+        "unknown shape `spere`",
+    ] {
+        assert!(text.contains(says), "{text}");
+    }
+    // Each is told as alone (place, message, the line underlined), in file order; a material in
+    // error is not also "unknown" to the object that names it.
+    assert_eq!(text.matches("s.toml:").count(), 5, "{text}");
+    assert!(text.find("`roughnes`") < text.find("`spere`"), "{text}");
+    assert!(!text.contains("unknown material `red`"), "{text}");
+    // Past ten, the rest are counted.
+    let many: String = (0..14).map(|k| format!("[[objects]]\nshape = \"sphere\"\nmaterial = \"m{k}\"\n")).collect();
+    let e = err(&format!("{CAMERA}{many}"));
+    assert_eq!(e.more.len() + 1, crate::error::MAX_ERRORS);
+    assert_eq!(e.unshown, 4);
+    let text = e.to_string();
+    assert!(text.contains("`m0`") && text.contains("`m9`") && !text.contains("`m10`"), "{text}");
+    assert!(text.ends_with("and 4 more errors (the first 10 are shown)"), "{text}");
+    // A TOML syntax error stops the toml crate at once: it is told alone.
+    let e = err(&format!("{CAMERA}[materials.a]\ndiff = 0.5 0.5\n[[objects]]\nshape = \"spere\"\n"));
+    assert!(e.more.is_empty(), "{e}");
+}
+
+#[test]
+fn regression_lights_as_one_table_said_invalid_type_map_expected_a_sequence() {
+    let src = format!("{CAMERA}[lights]\nat = [0, 1, 0]\n");
+    let e = err(&src);
+    assert_eq!((e.line, e.column), pos(&src, "[lights]"));
+    assert_eq!(e.kind.to_string(), "`[lights]` is one table; each light is an array entry `[[lights]]`");
+    let e = err(&format!("{CAMERA}[objects]\nshape = \"sphere\"\n"));
+    assert_eq!(e.kind.to_string(), "`[objects]` is one table; each object is an array entry `[[objects]]`");
+}
+
+#[test]
+fn regression_a_number_without_a_digit_before_its_point_said_invalid_mantissa() {
+    for (written, says) in [
+        ("diff = .8", "a number needs a digit before the point: 0.8"),
+        ("diff = -.8", "a number needs a digit before the point: -0.8"),
+        ("diff = 8.", "a number needs a digit after the point: 8.0"),
+    ] {
+        let e = err(&format!("{CAMERA}[materials.a]\n{written}\n"));
+        assert_eq!(e.kind.to_string(), says, "{written}");
+    }
+    let e = err(&format!("{CAMERA}[[lights]]\nat = [.5, 1, 0]\n"));
+    assert_eq!(e.kind.to_string(), "a number needs a digit before the point: 0.5");
+}
+
+/// The warnings of `lancer check` for scene text `src`: loading's and the prepared scene's.
+fn warnings(src: &str) -> Vec<String> {
+    let l = load_scene(src, "s.toml", &Registry::with_builtins()).unwrap_or_else(|e| panic!("{e}"));
+    let prepared = lancer_shading::prepare(&l.scene).unwrap();
+    let mut all: Vec<String> = l.warnings.iter().map(|w| w.message.clone()).collect();
+    all.extend(crate::check(&l.scene, &l.pipeline, &prepared, &l.places).into_iter().map(|w| w.message));
+    all
+}
+
+#[test]
+fn regression_shine_1_was_warned_about_as_parameters_that_are_zero() {
+    // Found in use: at `shine = 1` the warning said the parameters the highlight reads are zero;
+    // they were not: the exponent 1/(1 − shine) is infinite.
+    let scene = |model: &str, shine: &str| {
+        format!(
+            "{CAMERA}[model]\nterms = [\"ambient\", {model}]\n[[lights]]\nat = [0, 5, -5]\n\
+             [[objects]]\nshape = \"sphere\"\nmaterial = {{ spec = 0.5, shine = {shine} }}\n"
+        )
+    };
+    let said = warnings(&scene("\"specular\"", "1"));
+    assert_eq!(said.len(), 1, "{said:?}");
+    assert!(
+        said[0].starts_with("term `specular` adds nothing to this scene: on every material, `shine = 1` makes"),
+        "{said:?}"
+    );
+    assert!(said[0].contains("exponent 1/(1 − shine) infinite") && !said[0].contains("zero"), "{said:?}");
+    let blinn = warnings(&scene("\"specular:blinn\"", "1"));
+    assert!(blinn[0].contains("exponent 4/(1 − shine) infinite"), "{blinn:?}");
+    // A fixed exponent does not come from shine: the highlight shows, no warning.
+    assert!(warnings(&scene("{ term = \"specular\", variant = \"blinn\", exponent = 64 }", "1")).is_empty());
+    // Zero fields are said so, naming them.
+    let zero = warnings(&scene("\"specular\"", "0"));
+    let end = "on every material, `shine` is 0 (`lancer terms` lists what each term reads)";
+    assert!(zero[0].ends_with(end), "{zero:?}");
+    let refraction = warnings(&scene("\"refraction\"", "0.5"));
+    assert!(refraction[0].contains(": on every material, `alpha` is 0 ("), "{refraction:?}");
+    // Materials idle for different reasons: each said once.
+    let two = format!("{}[[objects]]\nshape = \"cube\"\nmaterial = {{ spec = 0 }}\n", scene("\"specular\"", "1"));
+    let two = warnings(&two);
+    assert!(two[0].contains("gives a small sharp one), or `spec` is 0 and `shine` is 0 ("), "{two:?}");
+}
+
+#[test]
+fn regression_a_light_inside_glass_with_hard_shadows_was_said_to_reach_outside() {
+    // With `hard` shadows a shadow ray stops at any surface: the light inside a glass ball
+    // lights nothing outside it, which the warning did not say.
+    let scene = |shadows: &str, alpha: &str| {
+        format!(
+            "{CAMERA}[model]\nshadows = \"{shadows}\"\n[[lights]]\nat = [0, 0, 0]\n\
+             [[objects]]\nshape = \"sphere\"\nmaterial = {{ alpha = {alpha}, n = 1.5 }}\n\
+             [[objects]]\nshape = \"plane\"\ntranslate = [0, -2, 0]\n"
+        )
+    };
+    let inside = |said: Vec<String>| said.into_iter().find(|w| w.starts_with("light 1 is inside object 1")).unwrap();
+    let hard = inside(warnings(&scene("hard", "0.9")));
+    assert!(hard.contains("with `hard` shadows it lights nothing outside it either"), "{hard}");
+    let through = inside(warnings(&scene("transmissive", "0.9")));
+    assert!(through.ends_with("its light reaches outside only through transparent shadows"), "{through}");
+    assert!(inside(warnings(&scene("hard", "0"))).ends_with("it lights nothing outside that object"));
+    let none = inside(warnings(&scene("none", "0")));
+    assert!(none.contains("with `none` shadows nothing blocks its light"), "{none}");
+}

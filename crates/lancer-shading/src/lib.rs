@@ -25,9 +25,9 @@ pub use params::{ParamError, ParamSpec, ParamValue, Params};
 pub use pattern::surface_color;
 pub use prepare::{PrepareError, Prepared, prepare};
 pub use registry::{
-    Mistake, ModelError, NAME_MAX, NamedShadow, NamedTerm, Pipeline, RESERVED, Registry, RegistryError, ShadowSpec,
-    TermSpec, WEIGHT, is_name, is_term_name, nearest,
+    MATERIAL_FIELDS, Mistake, ModelError, NAME_MAX, NamedShadow, NamedTerm, Pipeline, RESERVED, Registry,
+    RegistryError, ShadowSpec, TermSpec, WEIGHT, is_name, is_term_name, nearest,
 };
-pub use render::{RenderOptions, TILE, WAVE, part_bands, render, render_prepared};
+pub use render::{RenderOptions, Scratches, TILE, WAVE, part_bands, render, render_prepared};
 pub use shadow::{HitBlock, ShadowContext, ShadowModel, aim};
 pub use term::{Chunk, Note, NoteValue, ShadeContext, Term, TermOutput, lit_by, mirror_direction, sum_lights};

@@ -12,6 +12,9 @@ pub struct TermSpec {
     pub variant: &'static str,
     /// One line for `lancer terms`.
     pub summary: &'static str,
+    /// The material fields its formula reads, of [`MATERIAL_FIELDS`] (`lancer terms` shows them:
+    /// which numbers of a material change this term's image).
+    pub reads: &'static [&'static str],
     /// The parameters it reads, for `lancer terms` and "did you mean" hints.
     pub params: &'static [ParamSpec],
     /// Builds the term from its parameters (reading each it knows).
@@ -50,6 +53,10 @@ pub struct ShadowSpec {
     pub mistake: Option<Mistake>,
 }
 
+/// The fields of a material, as a scene file names them: what a term can read
+/// ([`TermSpec::reads`]).
+pub const MATERIAL_FIELDS: [&str; 7] = ["ambi", "diff", "spec", "shine", "alpha", "n", "color"];
+
 /// A registration that clashes with one already there.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum RegistryError {
@@ -64,6 +71,19 @@ pub enum RegistryError {
     /// The same shadow model name twice.
     #[error("shadow model `{0}` is already registered")]
     DuplicateShadow(String),
+    /// A term that says it reads something a material does not have.
+    #[error(
+        "term `{name}` variant `{variant}` reads `{field}`, which is not a material field; the fields: {}",
+        MATERIAL_FIELDS.join(", ")
+    )]
+    UnknownField {
+        /// Term name.
+        name: String,
+        /// Variant name.
+        variant: String,
+        /// The field it names.
+        field: String,
+    },
     /// A name outside the grammar of [`is_name`], or one kept for Lancer's own files.
     #[error(
         "`{0}` cannot name a term, variant or shadow model: a name is a lowercase letter, then up to {max} lowercase letters, digits, `-` or `_`, and not `beauty`, `background` or `manifest`",
@@ -130,12 +150,7 @@ pub enum ModelError {
         known: Vec<String>,
     },
     /// A parameter the term or shadow model does not read.
-    #[error(
-        "`{owner}` has no parameter `{param}`{}; its parameters: {}{}",
-        hint(nearest),
-        if known.is_empty() { "none".to_owned() } else { known.join(", ") },
-        elsewhere_hint(owner, param, elsewhere)
-    )]
+    #[error("{}{}", no_param(owner, param, nearest, known), elsewhere_hint(owner, param, elsewhere))]
     UnknownParam {
         /// The term or shadow model.
         owner: String,
@@ -186,6 +201,8 @@ pub struct NamedTerm {
     pub name: String,
     /// The variant used.
     pub variant: String,
+    /// The material fields it reads ([`TermSpec::reads`]).
+    pub reads: &'static [&'static str],
     /// The `weight` parameter: a factor on the term's whole contribution.
     pub weight: f32,
     /// The parameters it was built with (as given; the others have their defaults).
@@ -243,6 +260,37 @@ impl Default for Registry {
     }
 }
 
+/// "`specular` has no parameter `exponant` (did you mean ...?); its parameters: ...".
+fn no_param(owner: &str, param: &str, nearest: &Option<String>, known: &[String]) -> String {
+    let known = if known.is_empty() { "none".to_owned() } else { known.join(", ") };
+    format!("`{owner}` has no parameter `{param}`{}; its parameters: {known}", hint(nearest))
+}
+
+impl ModelError {
+    /// This error as a command-line flag (`--terms`) says it, `entry` being the flag's entry in
+    /// error (`diffuse:lambert:roughness=3`): a hint about the variant that takes the parameter
+    /// is written in the flag's syntax (`diffuse:oren-nayar:roughness=3`), not a scene file's.
+    pub fn in_flag_syntax(&self, entry: &str) -> String {
+        match self {
+            ModelError::UnknownParam { owner, param, nearest, known, elsewhere } if !elsewhere.is_empty() => {
+                // The entry with the variant that takes the parameter, put in place of the one
+                // given (or after the name when none was).
+                let mut parts: Vec<&str> = entry.split(':').collect();
+                if parts.get(1).is_some_and(|p| !p.contains('=')) {
+                    parts.remove(1);
+                }
+                parts.insert(1.min(parts.len()), &elsewhere[0]);
+                let takes = match elsewhere.as_slice() {
+                    [one] => format!("variant {one} of `{owner}` takes"),
+                    many => format!("variants {} of `{owner}` take", many.join(", ")),
+                };
+                format!("{}; {takes} `{param}`: {}", no_param(owner, param, nearest, known), parts.join(":"))
+            }
+            other => other.to_string(),
+        }
+    }
+}
+
 /// "; variant blinn of `specular` takes `exponent` (...)" when other variants take the parameter.
 fn elsewhere_hint(owner: &str, param: &str, elsewhere: &[String]) -> String {
     match elsewhere {
@@ -293,6 +341,13 @@ impl Registry {
         }
         if RESERVED.contains(&spec.name) {
             return Err(RegistryError::BadName(spec.name.into()));
+        }
+        if let Some(field) = spec.reads.iter().find(|f| !MATERIAL_FIELDS.contains(f)) {
+            return Err(RegistryError::UnknownField {
+                name: spec.name.into(),
+                variant: spec.variant.into(),
+                field: (*field).into(),
+            });
         }
         if self.terms.iter().chain(&self.mistakes).any(|t| t.name == spec.name && t.variant == spec.variant) {
             return Err(RegistryError::DuplicateTerm { name: spec.name.into(), variant: spec.variant.into() });
@@ -385,7 +440,14 @@ impl Registry {
         let known: Vec<ParamSpec> = spec.params.iter().copied().chain([WEIGHT]).collect();
         let others: Vec<TermSpec> = variants.iter().filter(|t| t.variant != spec.variant).map(|t| **t).collect();
         unused_param(name, &params, &known, &others)?;
-        Ok(NamedTerm { name: name.to_owned(), variant: spec.variant.to_owned(), weight, params: given, term })
+        Ok(NamedTerm {
+            name: name.to_owned(),
+            variant: spec.variant.to_owned(),
+            reads: spec.reads,
+            weight,
+            params: given,
+            term,
+        })
     }
 
     /// Builds shadow model `name` (a classic mistake too) from `params`.
@@ -549,6 +611,17 @@ mod tests {
         assert_eq!(reg.mistakes().len(), r.mistakes().len() + 1);
         assert!(reg.register_term(TermSpec { mistake: None, ..rim }).is_err());
         assert!(reg.register_term(crate::terms::mirror::sign::SPEC).is_err());
+    }
+
+    #[test]
+    fn every_term_says_which_material_fields_it_reads_and_only_real_ones() {
+        for t in crate::terms::BUILTIN {
+            assert!(!t.reads.is_empty(), "{}:{} reads nothing", t.name, t.variant);
+        }
+        let mut r = Registry::with_builtins();
+        let typo = TermSpec { name: "rim", variant: "plain", reads: &["colour"], ..crate::terms::ambient::SPEC };
+        let e = r.register_term(typo).unwrap_err().to_string();
+        assert!(e.contains("reads `colour`, which is not a material field"), "{e}");
     }
 
     #[test]

@@ -74,6 +74,30 @@ pub struct RenderOptions<'a> {
     /// groups and no one-material shortcuts. Slower; the same images to the bit but where the
     /// block tracer and the BVH break an exact tie between two surfaces differently.
     pub reference: bool,
+    /// Scratch buffers to take the workers' from, and to give them back to after the render
+    /// (a caller rendering band after band, as a browser worker does, grows them once);
+    /// without it each render makes its own. The image is the same bits either way.
+    pub scratch: Option<&'a Scratches>,
+}
+
+/// The workers' scratch buffers (each a tile's hecs world, chunk columns, next generation and
+/// accumulators) kept between renders: [`RenderOptions::scratch`]. A render takes one per
+/// worker and gives it back; buffers made for a model with another number of terms are
+/// dropped, not reused.
+#[derive(Default)]
+pub struct Scratches(std::sync::Mutex<Vec<Scratch>>);
+
+impl Scratches {
+    /// A scratch for `pipeline`: a kept one when there is one of its shape, else a new one.
+    fn take(&self, pipeline: &Pipeline) -> Scratch {
+        let mut kept = lock(&self.0);
+        kept.retain(|s| s.accum.len() == pipeline.terms.len() + 1);
+        kept.pop().unwrap_or_else(|| Scratch::new(pipeline))
+    }
+
+    fn give_back(&self, scratch: Scratch) {
+        lock(&self.0).push(scratch);
+    }
 }
 
 /// The bands (rows of tiles, [`TILE`] pixels high, from the top) of part `index` of `count` of
@@ -206,7 +230,10 @@ pub fn render_prepared(
     // splitting of a tile list made a new scratch at every steal: 28 of them in a 2-thread
     // render of the anchor, each growing its buffers and faulting in their pages afresh).
     let worker = |me: usize| {
-        let mut scratch = Scratch::new(pipeline);
+        let mut scratch = match options.scratch {
+            Some(kept) => kept.take(pipeline),
+            None => Scratch::new(pipeline),
+        };
         let mut stats = RenderStats::default();
         while let Some(i) = next_tile(&queues, me) {
             if options.cancel.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed)) {
@@ -243,6 +270,9 @@ pub fn render_prepared(
                 progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, tiles_count);
             }
         }
+        if let Some(kept) = options.scratch {
+            kept.give_back(scratch);
+        }
         stats
     };
     let stats = (0..runs).into_par_iter().map(worker).reduce(RenderStats::default, |mut a, b| {
@@ -271,9 +301,9 @@ fn next_tile(queues: &[std::sync::Mutex<std::ops::Range<usize>>], me: usize) -> 
     }
 }
 
-/// Locks one run of [`next_tile`]. A range of indices is never left half-updated, so a panic
-/// elsewhere cannot spoil it.
-fn lock(q: &std::sync::Mutex<std::ops::Range<usize>>) -> std::sync::MutexGuard<'_, std::ops::Range<usize>> {
+/// Locks one run of [`next_tile`], or the kept [`Scratches`]. Neither is ever left
+/// half-updated, so a panic elsewhere cannot spoil it.
+fn lock<T>(q: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     q.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 

@@ -245,6 +245,14 @@ pub trait Term: Send + Sync {
         true
     }
 
+    /// Why the term adds nothing on a surface of `material` where [`Term::acts_on`] is false, as
+    /// a clause ("`shine = 1` makes its exponent infinite..."), when the reason is not that a
+    /// field it reads is zero (what `lancer check` says by default, naming the field).
+    fn why_idle(&self, material: &Material) -> Option<String> {
+        let _ = material;
+        None
+    }
+
     /// The inputs of the term's formula at `lane` of `chunk`, for `lancer explain` (called after
     /// [`Term::run`], on one-lane chunks, only while a pixel is explained). The default says
     /// nothing; the built-in terms list what their formula reads (e.g. `−u·w_r` and the

@@ -34,7 +34,7 @@ mod worker;
 pub use security::allowed_host;
 #[cfg(feature = "server")]
 pub use server::{Loaded, Loader, Options, serve};
-pub use state::{State, registry_json};
+pub use state::{MaterialState, State, registry_json};
 
 /// The page's files, by name: the same bytes whichever engine serves them.
 pub const PAGE: [(&str, &str); 3] = [

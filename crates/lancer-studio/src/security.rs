@@ -393,9 +393,10 @@ async fn explain(Axum(g): Axum<Guard>, Query(p): Query<Pixel>, body: String) -> 
         Err(e) => return e.into_response(),
     };
     let result = tokio::task::spawn_blocking(move || -> Result<String, String> {
-        let (mut prepared, camera, mut image, name) = {
+        let (mut prepared, camera, mut image, name, objects, materials) = {
             let slot = lock(&shared.slot);
-            (slot.prepared.clone(), slot.camera, slot.image, slot.name.clone())
+            let materials: Vec<String> = slot.loaded.materials.iter().map(|m| m.label.clone()).collect();
+            (slot.prepared.clone(), slot.camera, slot.image, slot.name.clone(), slot.objects.clone(), materials)
         };
         if p.x >= image.width || p.y >= image.height {
             return Err(format!("pixel {},{} is outside the {}x{} image", p.x, p.y, image.width, image.height));
@@ -403,7 +404,15 @@ async fn explain(Axum(g): Axum<Guard>, Query(p): Query<Pixel>, body: String) -> 
         let pipeline = state.apply(&mut prepared, &shared.registry)?;
         image.samples = state.model.samples;
         let e = lancer_shading::explain_pixel(&prepared, &camera, &image, &pipeline, p.x, p.y);
-        Ok(lancer_output::Report { scene: &name, image: &image, pipeline: &pipeline, explanation: &e }.json())
+        let report = lancer_output::Report {
+            scene: &name,
+            image: &image,
+            pipeline: &pipeline,
+            explanation: &e,
+            objects: &objects,
+            materials: &materials,
+        };
+        Ok(report.json())
     })
     .await;
     match result {

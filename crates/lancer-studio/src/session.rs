@@ -61,6 +61,9 @@ pub struct Session {
     pub warnings: Vec<String>,
     /// How each prepared object is named: `object 3 (sphere, glass.toml:45)`.
     pub objects: Vec<String>,
+    /// The render's scratch buffers, kept from one render to the next (a browser worker renders
+    /// band after band).
+    scratch: lancer_shading::Scratches,
 }
 
 impl Session {
@@ -96,6 +99,7 @@ impl Session {
             loaded: state,
             warnings,
             objects,
+            scratch: Default::default(),
         })
     }
 
@@ -142,7 +146,13 @@ impl Session {
     /// `state`).
     pub fn render_applied(&self, applied: &Applied, state: &State, coarse: bool, part: Option<(u32, u32)>) -> Frame {
         let image = self.image(state, coarse);
-        let options = RenderOptions { layers: true, part, compact: part.is_some(), ..RenderOptions::default() };
+        let options = RenderOptions {
+            layers: true,
+            part,
+            compact: part.is_some(),
+            scratch: Some(&self.scratch),
+            ..RenderOptions::default()
+        };
         lancer_shading::render_prepared(&applied.prepared, &self.camera, &image, &applied.pipeline, options)
     }
 
@@ -155,7 +165,16 @@ impl Session {
         let mut prepared = self.prepared.clone();
         let pipeline = state.apply(&mut prepared, &self.registry)?;
         let e = lancer_shading::explain_pixel(&prepared, &self.camera, &image, &pipeline, x, y);
-        Ok(lancer_output::Report { scene: &self.name, image: &image, pipeline: &pipeline, explanation: &e }.json())
+        let materials: Vec<String> = self.loaded.materials.iter().map(|m| m.label.clone()).collect();
+        let report = lancer_output::Report {
+            scene: &self.name,
+            image: &image,
+            pipeline: &pipeline,
+            explanation: &e,
+            objects: &self.objects,
+            materials: &materials,
+        };
+        Ok(report.json())
     }
 
     /// The scene's text with the edits of `state` written in (every other byte kept).
@@ -199,6 +218,19 @@ mod tests {
         let e = load(&SCENE.replace("width = 40", "width = \"wide\"")).err().expect("a string is no width");
         assert_eq!((e.file.as_str(), e.line, e.column), ("s.toml", 5, 9), "{}", e.message);
         assert!(e.message.starts_with("s.toml:5:9: "), "{}", e.message);
+    }
+
+    #[test]
+    fn regression_the_page_showed_one_error_of_a_file_with_several() {
+        // The engine's error is placed at the first (the editor marks its line), and its message
+        // tells every one, in file order.
+        let e = load(&SCENE.replace("\"red\"\n", "\"blue\"\n").replace("\"sphere\"", "\"spere\""))
+            .err()
+            .expect("two mistakes");
+        assert_eq!((e.line, e.column), (12, 9), "{}", e.message);
+        let (shape, material) =
+            (e.message.find("s.toml:12:9: unknown shape"), e.message.find("s.toml:13:12: unknown material"));
+        assert!(shape.is_some() && material.is_some() && shape < material, "{}", e.message);
     }
 
     #[test]

@@ -27,6 +27,41 @@ pub struct MaterialState {
     pub n: f32,
 }
 
+impl MaterialState {
+    /// The numbers of the material `m`, named `label`.
+    pub fn of(label: String, m: &lancer_core::Material) -> MaterialState {
+        MaterialState {
+            label,
+            color: m.color.to_array(),
+            ambi: m.ambi,
+            diff: m.diff,
+            spec: m.spec,
+            shine: m.shine,
+            alpha: m.alpha,
+            n: m.n,
+        }
+    }
+
+    /// Checks the numbers against the ranges a scene file allows and writes them into `m`
+    /// (whose pattern stays); an error names the number out of range and leaves `m` as it was.
+    pub fn write_to(&self, m: &mut lancer_core::Material) -> Result<(), String> {
+        let unit = |x: f32, what: &str| {
+            if (0.0..=1.0).contains(&x) { Ok(x) } else { Err(format!("{what} must be in [0, 1], not {x}")) }
+        };
+        let colour = Vec3::from(self.color);
+        if !colour.is_finite() || colour.min_element() < 0.0 || colour.max_element() > 1000.0 {
+            return Err(format!("{}: colour channels must be in [0, 1000]", self.label));
+        }
+        let (ambi, diff, spec) = (unit(self.ambi, "ambi")?, unit(self.diff, "diff")?, unit(self.spec, "spec")?);
+        let (shine, alpha) = (unit(self.shine, "shine")?, unit(self.alpha, "alpha")?);
+        if !(1.0..=2.5).contains(&self.n) {
+            return Err(format!("n must be in [1, 2.5], not {}", self.n));
+        }
+        (m.color, m.ambi, m.diff, m.spec, m.shine, m.alpha, m.n) = (colour, ambi, diff, spec, shine, alpha, self.n);
+        Ok(())
+    }
+}
+
 /// One light.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LightState {
@@ -123,16 +158,7 @@ impl State {
         let materials = prepared.materials[..named]
             .iter()
             .enumerate()
-            .map(|(i, m)| MaterialState {
-                label: labels.get(i).cloned().unwrap_or_else(|| format!("material {}", i + 1)),
-                color: m.color.to_array(),
-                ambi: m.ambi,
-                diff: m.diff,
-                spec: m.spec,
-                shine: m.shine,
-                alpha: m.alpha,
-                n: m.n,
-            })
+            .map(|(i, m)| MaterialState::of(labels.get(i).cloned().unwrap_or_else(|| format!("material {}", i + 1)), m))
             .collect();
         let lights = prepared
             .lights
@@ -169,24 +195,8 @@ impl State {
         if self.materials.len() + 1 != prepared.materials.len() || self.lights.len() != prepared.lights.len() {
             return Err("the edit does not match the scene (reloaded meanwhile?)".into());
         }
-        let unit = |x: f32, what: &str| {
-            if (0.0..=1.0).contains(&x) { Ok(x) } else { Err(format!("{what} must be in [0, 1], not {x}")) }
-        };
         for (m, s) in prepared.materials.iter_mut().zip(&self.materials) {
-            let colour = Vec3::from(s.color);
-            if !colour.is_finite() || colour.min_element() < 0.0 || colour.max_element() > 1000.0 {
-                return Err(format!("{}: colour channels must be in [0, 1000]", s.label));
-            }
-            m.color = colour;
-            m.ambi = unit(s.ambi, "ambi")?;
-            m.diff = unit(s.diff, "diff")?;
-            m.spec = unit(s.spec, "spec")?;
-            m.shine = unit(s.shine, "shine")?;
-            m.alpha = unit(s.alpha, "alpha")?;
-            if !(1.0..=2.5).contains(&s.n) {
-                return Err(format!("n must be in [1, 2.5], not {}", s.n));
-            }
-            m.n = s.n;
+            s.write_to(m)?;
         }
         let origin = prepared.origin;
         for (l, s) in prepared.lights.iter_mut().zip(&self.lights) {
@@ -220,7 +230,8 @@ impl State {
             terms.push(
                 registry
                     .build_term(&t.name, Some(&t.variant), params_of(&t.params)?)
-                    .map_err(|e| format!("term `{}`: {e}", t.name))?,
+                    // The registry's errors name the term (and its variant) themselves.
+                    .map_err(|e| e.to_string())?,
             );
         }
         let shadows = registry
@@ -308,5 +319,21 @@ mod tests {
         state.apply(&mut edited, &registry).unwrap();
         assert_eq!(edited.lights[0].at, prepared.lights[0].at);
         assert_eq!(edited.lights[1].at, glam::Vec3::new(-9.0, 5.0, 0.0));
+    }
+
+    #[test]
+    fn regression_a_bad_term_parameter_named_its_term_twice() {
+        // Found in use: "term `specular`: `specular`: ..." on the page.
+        let src = "[camera]\nfrom = [0, 0, -5]\nto = [0, 0, 0]\n[[objects]]\nshape = \"sphere\"\n";
+        let registry = Registry::with_builtins();
+        let l = lancer_scene::load_scene(src, "s.toml", &registry).unwrap();
+        let prepared = lancer_shading::prepare(&l.scene).unwrap();
+        let mut state = State::of(&prepared, &l.pipeline, &l.places.materials, 1);
+        let specular = state.model.terms.iter_mut().find(|t| t.name == "specular").unwrap();
+        specular.variant = "blinn".into();
+        specular.params.insert("exponent".into(), serde_json::json!(-1));
+        let e = state.apply(&mut prepared.clone(), &registry).err().unwrap();
+        assert_eq!(e.matches("specular").count(), 1, "{e}");
+        assert!(e.starts_with("`specular`: "), "{e}");
     }
 }

@@ -390,6 +390,7 @@ fn render(shared: &Shared, job: &Job, viewer: &Viewer, cancel: &AtomicBool) -> b
             layers: true,
             reference: false,
             compact: false,
+            scratch: None,
         },
     );
     if cancel.load(Ordering::SeqCst) {

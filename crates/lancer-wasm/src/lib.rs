@@ -179,7 +179,7 @@ impl Engine {
         .to_string();
         let mut floats = Vec::with_capacity(frame.layers.len() * frame.beauty.len() * 3);
         for layer in &frame.layers {
-            floats.extend(layer.pixels.iter().flat_map(|p| p.to_array()));
+            floats.extend_from_slice(bytemuck::cast_slice(&layer.pixels));
         }
         Ok(Rendered { header, floats })
     }

@@ -297,11 +297,62 @@ fn layers_of(frame: &lancer_core::Frame, given: &[Given], output: Option<OutputM
     all
 }
 
+/// What [`diagnose_layer`] found: the verdict's name and the whole report.
+#[derive(Clone, Debug)]
+pub struct Diagnosis {
+    /// `correct`, a mistake's name (`specular:sign`, `output:gamma`...) or `unclear`.
+    pub verdict: String,
+    /// The report as `lancer diagnose` prints it: `verdict: NAME` first, then the evidence and
+    /// the hint.
+    pub report: String,
+}
+
+/// `lancer diagnose SCENE --term TERM` on an image held in memory rather than a file: `linear`
+/// (`width` × `height` linear values, row 0 at the top, as a [`lancer_core::Frame`]'s layers
+/// hold them) is compared with the layer `term` (a term of the scene's model, or `beauty`) of
+/// the scene rendered with the right model and with each mistake of the catalogue. For a
+/// program's own tests: course/starter diagnoses a student's term this way. `label` is what the
+/// report calls the image (in place of a file's name).
+pub fn diagnose_layer(
+    registry: &Registry,
+    scene: &std::path::Path,
+    term: &str,
+    label: &str,
+    (width, height): (u32, u32),
+    linear: Vec<Vec3>,
+) -> Result<Diagnosis> {
+    if linear.len() != width as usize * height as usize {
+        bail!("{} values for a {width}x{height} image", linear.len());
+    }
+    let loaded = crate::app::load(registry, &scene_alone(scene)?)?;
+    if term != "beauty" && !loaded.pipeline.terms.iter().any(|t| t.name == term) {
+        bail!("the model of {} has no term `{term}`", scene.display());
+    }
+    let mut image = Image::from_linear(width, height, linear);
+    image.format = "linear float RGB".to_owned();
+    let given = vec![Given { layer: term.to_owned(), path: PathBuf::from(label), image }];
+    let report = diagnose_given(registry, loaded, given)?;
+    Ok(Diagnosis { verdict: report.verdict.clone(), report: report.text() })
+}
+
+/// The scene `scene` with its own settings, as `lancer diagnose SCENE` with no other flag reads it.
+fn scene_alone(scene: &std::path::Path) -> Result<crate::app::SceneArgs> {
+    use clap::FromArgMatches as _;
+    let flags = crate::app::SceneArgs::augment_args(clap::Command::new("diagnose"))
+        .try_get_matches_from([std::ffi::OsStr::new("diagnose"), scene.as_os_str()])?;
+    Ok(crate::app::SceneArgs::from_arg_matches(&flags)?)
+}
+
 /// The whole diagnosis: reads, renders, compares, decides.
 fn diagnose(registry: &Registry, args: &DiagnoseArgs) -> Result<Report> {
     let loaded = crate::app::load(registry, &args.input)?;
+    let given = read_given(args, &loaded.pipeline)?;
+    diagnose_given(registry, loaded, given)
+}
+
+/// [`diagnose`] of the images `given` against the loaded scene: renders, compares, decides.
+fn diagnose_given(registry: &Registry, loaded: crate::app::Loaded, given: Vec<Given>) -> Result<Report> {
     let crate::app::Loaded { mut scene, pipeline, name, .. } = loaded;
-    let given = read_given(args, &pipeline)?;
     let mut notes: Vec<String> =
         given.iter().flat_map(|g| g.image.notes.iter().map(move |n| format!("{}: {n}", g.path.display()))).collect();
     let (w, h) = size_of(&given, (scene.image.width, scene.image.height), &mut notes)?;
@@ -583,6 +634,32 @@ mod tests {
         );
         let e = size_of(&[given(96, 54, "a.png"), given(48, 27, "b.png")], (480, 270), &mut notes).unwrap_err();
         assert_eq!(e.to_string(), "b.png is 48x27 but a.png is 96x54: the images of a folder are of one size");
+    }
+
+    #[test]
+    fn a_layer_in_memory_is_diagnosed_as_a_file_would_be() {
+        // The course's specular exercise: its specular layer rendered with `specular:sign` is
+        // named so, the right layer is correct, and a layer of the wrong size is refused.
+        let registry = Registry::with_builtins();
+        let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../course/ex3-specular.toml");
+        let loaded = crate::app::load(&registry, &scene_alone(&scene).unwrap()).unwrap();
+        let crate::app::Loaded { scene: world, pipeline, .. } = loaded;
+        let prepared = lancer_shading::prepare(&world).unwrap();
+        let layer = |p: &Pipeline| {
+            let options = RenderOptions { layers: true, ..Default::default() };
+            let frame = lancer_shading::render_prepared(&prepared, &world.camera, &world.image, p, options);
+            frame.layer("specular").unwrap().pixels.clone()
+        };
+        let size = (world.image.width, world.image.height);
+        let right = diagnose_layer(&registry, &scene, "specular", "mine", size, layer(&pipeline)).unwrap();
+        assert_eq!(right.verdict, "correct", "{}", right.report);
+        let sign = catalogue::entries(&registry).into_iter().find(|e| e.name == "specular:sign").unwrap();
+        let mistaken = catalogue::combined(&registry, &pipeline, &[&sign]).unwrap();
+        let d = diagnose_layer(&registry, &scene, "specular", "mine", size, layer(&mistaken)).unwrap();
+        assert_eq!(d.verdict, "specular:sign", "{}", d.report);
+        assert!(d.report.starts_with("verdict: specular:sign\n") && d.report.contains("image: mine ("), "{}", d.report);
+        assert!(diagnose_layer(&registry, &scene, "specular", "mine", (2, 2), vec![Vec3::ZERO; 3]).is_err());
+        assert!(diagnose_layer(&registry, &scene, "mirror", "mine", size, layer(&pipeline)).is_err());
     }
 
     #[test]

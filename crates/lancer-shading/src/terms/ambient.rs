@@ -19,6 +19,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "ambient",
     variant: "seed",
     summary: "ambi · Col_Ω: uniform light from unmodelled inter-reflections",
+    reads: &["ambi", "color"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Ambient)),
     mistake: None,

@@ -379,16 +379,18 @@ function carried(ray) {
 /// carried back.
 function explainText(doc, x, y) {
   const lines = [`pixel ${x},${y}`];
-  const material = (i) => {
-    const m = state.materials[i];
-    return m ? `<a href="#" data-material-link="${i}">material "${html(m.label)}"</a>` : `the default material`;
+  // Objects and materials are numbered from 1 in the explanation (file order, and the prepared
+  // table's order, whose last entry is the default material); the sliders' list from 0.
+  const material = (number) => {
+    const m = state.materials[number - 1];
+    return m ? `<a href="#" data-material-link="${number - 1}">material "${html(m.label)}"</a>` : `the default material`;
   };
   const walk = (ray, depth) => {
     const pad = "  ".repeat(depth);
     lines.push(`${pad}${html(ray.kind)} ray, generation ${ray.generation}: u = ${vec(ray.direction)}, weight ${vec(ray.weight)}`);
     if (!ray.hit) { lines.push(`${pad}  hits nothing${ray.background ? `: background ${vec(ray.background)}` : ""}`); return; }
     const h = ray.hit;
-    lines.push(`${pad}  hits ${html(objectLabels[h.object] ?? `object ${h.object + 1} (${h.shape})`)}, ${material(h.material)}: I = ${vec(h.point)}, N = ${vec(h.normal)}, Col_Ω = ${vec(h.color)}`);
+    lines.push(`${pad}  hits ${html(h.object_name ?? objectLabels[h.object - 1] ?? `object ${h.object} (${h.shape})`)}, ${material(h.material)}: I = ${vec(h.point)}, N = ${vec(h.normal)}, Col_Ω = ${vec(h.color)}`);
     ray.lights.forEach((l, k) => lines.push(`${pad}  light ${k + 1}: ${l.traced ? `N·w = ${l.n_dot_w.toFixed(4)}, transmittance ${vec(l.transmittance)}` : "not lighting this point"}`));
     const spawned = new Set();
     for (const t of ray.terms) {
@@ -455,6 +457,7 @@ function buildPanels() {
     colour.addEventListener("input", () => { m.color = fromHex(colour.value); changed(); });
     const set = el("fieldset", {}, el("legend", { textContent: m.label }), el("div", { className: "row" }, el("label", { textContent: "Col_Ω" }), colour, el("span")));
     set.dataset.material = i;
+    set.dataset.name = m.label;
     for (const k of ["ambi", "diff", "spec", "shine", "alpha", "n"]) set.append(...slider(k, () => m[k], (v) => { m[k] = v; }, RANGES[k], 0.005, FORMULAS[k]));
     return set;
   }));

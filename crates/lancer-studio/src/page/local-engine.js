@@ -3,12 +3,14 @@
 // cores) each hold an instance with the scene loaded and render bands of 16 rows, worker I the
 // bands I, I+N, I+2N... as `lancer render --tile I/N` (one that runs out takes the last bands of
 // the fullest other share); the page puts the bands in place, so the frame is the bits of one
-// render. A worker gets its next band only when the last is back: a newer edit starts within a
-// band's time. One more instance, on the page's thread, loads each scene first (its errors),
+// render. A worker is asked for at most two bands at once (one rendering, the next waiting, so
+// it never idles between bands): a newer edit starts within two bands' time. One more instance, on the page's thread, loads each scene first (its errors),
 // explains pixels, writes the edited text and encodes downloads.
 "use strict";
 
 const TILE = 16;
+/// The bands a worker is asked for at once: one rendering, the next waiting in its queue.
+const AHEAD = 2;
 
 // A module of one function that uses a 128-bit vector instruction: valid only where the browser
 // runs WebAssembly SIMD.
@@ -74,11 +76,12 @@ export async function createLocalEngine(on, options = {}) {
   let keys = 0;
   let job = null;     // the render in progress: { generation, state, start, phases }
   let generation = 0;
+  let jobs = 0;       // counts the bands asked of the workers
 
   const workers = [];
   const failures = new Array(count).fill(0); // each slot's fatal failures in a row
   function spawn(i) {
-    const w = { worker: new Worker(new URL("./render-worker.js", import.meta.url), { type: "module" }), ready: false, busy: false, key: null, index: i, dead: false };
+    const w = { worker: new Worker(new URL("./render-worker.js", import.meta.url), { type: "module" }), ready: false, asked: new Map(), key: null, index: i, dead: false };
     w.worker.onmessage = (e) => received(w, e.data);
     w.worker.onerror = (e) => on.message({ type: "error", message: `render worker: ${e.message}` });
     w.worker.postMessage({ type: "init", glue: glueUrl, module });
@@ -92,7 +95,7 @@ export async function createLocalEngine(on, options = {}) {
     if (m.type === "failed") {
       // A failed load: the worker has no scene (its render, queued behind, fails too).
       if (m.kind === "load") w.key = null;
-      else w.busy = false;
+      else if (!m.fatal) w.asked.delete(m.job.id);
       const current = job && m.job && m.job.generation === job.generation;
       if (m.fatal) {
         w.worker.terminate();
@@ -100,8 +103,8 @@ export async function createLocalEngine(on, options = {}) {
         failures[w.index] += 1;
         if (failures[w.index] <= 2) spawn(w.index);
         else on.message({ type: "error", message: `render worker ${w.index + 1} keeps failing (${m.message}); rendering on the others` });
-        // Its band goes back to its share.
-        if (current && m.kind === "render") job.phases[m.job.phase].shares[w.index].unshift(m.job.band);
+        // Its bands (the one that failed, and any asked after it) go back to its share.
+        if (job) for (const j of [...w.asked.values()].reverse()) if (j.generation === job.generation) job.phases[j.phase].shares[w.index].unshift(j.band);
       } else if (current) {
         on.message({ type: "error", message: m.message });
         job = null;
@@ -109,7 +112,7 @@ export async function createLocalEngine(on, options = {}) {
       return pump();
     }
     if (m.type !== "rendered") return;
-    w.busy = false;
+    w.asked.delete(m.job.id);
     failures[w.index] = 0;
     if (job && m.job.generation === job.generation) place(job.phases[m.job.phase], m);
     pump();
@@ -160,16 +163,22 @@ export async function createLocalEngine(on, options = {}) {
   function pump() {
     if (!job || !scene) return;
     for (const [i, w] of workers.entries()) {
-      if (!w.ready || w.busy || w.dead) continue;
+      if (!w.ready || w.dead) continue;
       if (w.key !== scene.key) {
         w.worker.postMessage({ type: "load", key: scene.key, name: scene.name, source: scene.source, index: scene.index, blob: scene.blob });
         w.key = scene.key;
       }
-      const n = next(i);
-      if (!n) continue;
-      const p = job.phases[n.phase];
-      w.busy = true;
-      w.worker.postMessage({ type: "render", key: scene.key, state: job.state, coarse: p.coarse, part: n.band, parts: p.bands, job: { generation: job.generation, phase: n.phase, band: n.band } });
+      // Up to AHEAD bands asked at once: the next is queued in the worker while it renders
+      // one, so it never waits for the page between bands (a newer edit waits for at most
+      // those bands).
+      while (w.asked.size < AHEAD) {
+        const n = next(i);
+        if (!n) break;
+        const p = job.phases[n.phase];
+        const j = { id: ++jobs, generation: job.generation, phase: n.phase, band: n.band };
+        w.asked.set(j.id, j);
+        w.worker.postMessage({ type: "render", key: scene.key, state: job.state, coarse: p.coarse, part: n.band, parts: p.bands, job: j });
+      }
     }
   }
 

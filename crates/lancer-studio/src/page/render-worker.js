@@ -1,7 +1,6 @@
 // Lancer in the browser: one render worker (a module Web Worker). It holds one wasm engine with
 // the scene loaded, and renders what the page asks for, one band of rows at a time, so that a
-// newer edit never waits for more than a band (the page sends the next band only when this one
-// is back). Its bands are the page's interleaved share, exactly `lancer render --tile I/N`'s.
+// newer edit never waits for more than two bands (the page asks for at most two at once). Its bands are the page's interleaved share, exactly `lancer render --tile I/N`'s.
 "use strict";
 
 let glue = null;

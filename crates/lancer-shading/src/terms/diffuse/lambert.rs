@@ -21,6 +21,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "diffuse",
     variant: "lambert",
     summary: "diff · (N·w) · Col_Ω · Col_L: Lambert's matte reflection",
+    reads: &["diff", "color"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Lambert)),
     mistake: None,

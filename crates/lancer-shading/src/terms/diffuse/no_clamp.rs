@@ -24,6 +24,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "diffuse",
     variant: "no-clamp",
     summary: "Lambert without max(N·w, 0): lights behind the surface subtract, its unlit side goes darker than ambient",
+    reads: &["diff", "color"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(NoClamp)),
     mistake: Some(Mistake {

@@ -24,6 +24,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "diffuse",
     variant: "oren-nayar",
     summary: "Oren–Nayar: Lambert for rough surfaces, flatter and brighter at the rim",
+    reads: &["diff", "color"],
     params: &[ParamSpec { name: "roughness", default: "20", doc: "surface roughness σ in degrees (0 = Lambert)" }],
     build: |p: &mut Params| Ok(Box::new(OrenNayar::new(p.number("roughness", 20.0, 0.0, 90.0)? as f32))),
     mistake: None,

@@ -22,6 +22,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "mirror",
     variant: "constant",
     summary: "spec · Col(R_r): recursive mirror reflection weighted by spec",
+    reads: &["spec"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Mirror)),
     mistake: None,

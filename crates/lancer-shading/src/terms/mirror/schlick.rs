@@ -22,6 +22,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "mirror",
     variant: "schlick",
     summary: "F(θ) · Col(R_r): reflection weighted by Fresnel–Schlick from the index n",
+    reads: &["spec", "n"],
     params: &[ParamSpec {
         name: "f0",
         default: "((n−1)/(n+1))² per material",

@@ -21,6 +21,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "mirror",
     variant: "sign",
     summary: "the reflected direction with the wrong sign, u_r = 2(N·u)N − u: the ray goes into the surface, not away",
+    reads: &["spec"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Sign)),
     mistake: Some(Mistake {

@@ -27,6 +27,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "refraction",
     variant: "fresnel",
     summary: "alpha · (R·Col(R_r) + T·Col(R_t)): Fresnel split at each surface, optional absorption",
+    reads: &["alpha", "n", "color"],
     params: &[ParamSpec {
         name: "absorb",
         default: "0",

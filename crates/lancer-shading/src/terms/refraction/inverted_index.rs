@@ -25,6 +25,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "refraction",
     variant: "inverted-index",
     summary: "VctTransmis given n on entry and 1/n on exit, where 1/n and n belong: the glass bends the view the wrong way",
+    reads: &["alpha", "n"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(InvertedIndex)),
     mistake: Some(Mistake {

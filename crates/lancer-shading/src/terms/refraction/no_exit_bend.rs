@@ -24,6 +24,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "refraction",
     variant: "no-exit-bend",
     summary: "the ray leaves the object at J along u_t, never bent again by VctTransmis(u_t, N_j, n)",
+    reads: &["alpha", "n"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(NoExitBend)),
     mistake: Some(Mistake {

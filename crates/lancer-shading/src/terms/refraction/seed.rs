@@ -30,6 +30,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "refraction",
     variant: "seed",
     summary: "alpha · Col(R_t): the handout's refraction through the object, weighted by alpha",
+    reads: &["alpha", "n"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Refraction)),
     mistake: None,

@@ -25,6 +25,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "refraction",
     variant: "sign-trap",
     summary: "VctTransmis given the outward normal N on entry, not −N: the ray turns back out and the glass shows a reflection",
+    reads: &["alpha", "n"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(SignTrap)),
     mistake: Some(Mistake {

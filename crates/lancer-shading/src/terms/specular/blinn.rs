@@ -20,6 +20,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "specular",
     variant: "blinn",
     summary: "spec · shine · (N·h)^e · Col_L: Blinn-Phong's half-vector highlight",
+    reads: &["spec", "shine"],
     params: &[EXPONENT],
     build: |p: &mut Params| Ok(Box::new(Blinn { exponent: read_exponent(p)? })),
     mistake: None,
@@ -32,6 +33,11 @@ struct Blinn {
 impl Term for Blinn {
     fn acts_on(&self, material: &lancer_core::Material) -> bool {
         material.spec > 0.0 && material.shine > 0.0 && (self.exponent.is_some() || material.shine < 1.0)
+    }
+
+    fn why_idle(&self, material: &lancer_core::Material) -> Option<String> {
+        // A fixed exponent does not come from shine.
+        if self.exponent.is_some() { None } else { super::infinite_exponent(material, "4/(1 − shine)") }
     }
 
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {

@@ -23,6 +23,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "specular",
     variant: "blinn-normalized",
     summary: "spec · (e+8)/(8π) · (N·h)^e · (N·w) · Col_L: energy-normalised Blinn-Phong",
+    reads: &["spec", "shine"],
     params: &[EXPONENT],
     build: |p: &mut Params| Ok(Box::new(BlinnNormalized { exponent: read_exponent(p)? })),
     mistake: None,
@@ -35,6 +36,11 @@ struct BlinnNormalized {
 impl Term for BlinnNormalized {
     fn acts_on(&self, material: &lancer_core::Material) -> bool {
         material.spec > 0.0 && (self.exponent.is_some() || material.shine < 1.0)
+    }
+
+    fn why_idle(&self, material: &lancer_core::Material) -> Option<String> {
+        // A fixed exponent does not come from shine.
+        if self.exponent.is_some() { None } else { super::infinite_exponent(material, "4/(1 − shine)") }
     }
 
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {

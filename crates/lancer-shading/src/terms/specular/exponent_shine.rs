@@ -22,6 +22,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "specular",
     variant: "exponent-shine",
     summary: "Phong with the exponent shine instead of 1/(1−shine): a wide glow over the lit side, no small highlight",
+    reads: &["spec", "shine"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(ExponentShine)),
     mistake: Some(Mistake {

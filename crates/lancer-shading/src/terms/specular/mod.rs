@@ -57,6 +57,17 @@ pub fn whole_power(e: f32) -> Option<u32> {
     ((e - whole).abs() <= 1e-4 * whole && whole <= 1024.0).then_some(whole as u32)
 }
 
+/// [`crate::Term::why_idle`] of a highlight whose exponent `formula` (`1/(1 − shine)`) comes
+/// from `shine`: at `shine = 1` it is infinite and the highlight vanishes, whatever `spec` is.
+pub(crate) fn infinite_exponent(material: &lancer_core::Material, formula: &str) -> Option<String> {
+    (material.spec > 0.0 && material.shine >= 1.0).then(|| {
+        format!(
+            "`shine = 1` makes its exponent {formula} infinite, so the highlight shrinks to nothing (a shine \
+             just below 1, such as 0.98, gives a small sharp one)"
+        )
+    })
+}
+
 /// The optional `exponent` parameter shared by both Blinn variants.
 pub(crate) const EXPONENT: crate::ParamSpec = crate::ParamSpec {
     name: "exponent",

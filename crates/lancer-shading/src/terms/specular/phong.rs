@@ -25,6 +25,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "specular",
     variant: "phong",
     summary: "spec · shine · (−u·w_r)^(1/(1−shine)) · Col_L: the handout's Phong highlight",
+    reads: &["spec", "shine"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Phong)),
     mistake: None,
@@ -45,6 +46,10 @@ pub fn phong_factor(shine: f32, c: f32) -> f32 {
 impl Term for Phong {
     fn acts_on(&self, material: &lancer_core::Material) -> bool {
         material.spec > 0.0 && material.shine > 0.0 && material.shine < 1.0
+    }
+
+    fn why_idle(&self, material: &lancer_core::Material) -> Option<String> {
+        super::infinite_exponent(material, "1/(1 − shine)")
     }
 
     fn explain(&self, ctx: &ShadeContext<'_>, chunk: Chunk<'_>, lane: usize) -> Vec<Note> {

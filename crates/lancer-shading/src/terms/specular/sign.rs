@@ -24,6 +24,7 @@ pub const SPEC: TermSpec = TermSpec {
     name: "specular",
     variant: "sign",
     summary: "Phong with max(u·w_r, 0) instead of max(−u·w_r, 0): the highlight leaves the mirror direction for the far side",
+    reads: &["spec", "shine"],
     params: &[],
     build: |_: &mut Params| Ok(Box::new(Sign)),
     mistake: Some(Mistake {
@@ -37,6 +38,10 @@ struct Sign;
 impl Term for Sign {
     fn acts_on(&self, material: &lancer_core::Material) -> bool {
         material.spec > 0.0 && material.shine > 0.0 && material.shine < 1.0
+    }
+
+    fn why_idle(&self, material: &lancer_core::Material) -> Option<String> {
+        super::infinite_exponent(material, "1/(1 − shine)")
     }
 
     fn reads_lights(&self, material: &lancer_core::Material) -> bool {
