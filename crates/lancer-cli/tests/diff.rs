@@ -3,29 +3,13 @@
 //! bad input (a located error, nothing written), heatmaps, JSON, and two `--aov` folders.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
+
+mod common;
+use common::{files, lancer, stderr, stdout};
 
 use glam::Vec3;
 use lancer_core::srgb_decode;
-
-fn lancer(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lancer")).args(args).current_dir(dir).output().expect("lancer runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn files(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> =
-        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
-    v.sort();
-    v
-}
 
 const W: u32 = 32;
 const H: u32 = 24;

@@ -2,29 +2,16 @@
 //! image `lancer render` writes with the same changes, and a mistaken sheet refused with its
 //! place and no file written.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::PathBuf;
+
+mod common;
+use common::{files, lancer, stderr};
 
 use base64::Engine as _;
-
-fn lancer(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lancer")).args(args).current_dir(dir).output().expect("lancer runs")
-}
 
 fn repo(rel: &str) -> String {
     let p: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", rel].iter().collect();
     p.canonicalize().unwrap().display().to_string()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn files(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> =
-        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
-    v.sort();
-    v
 }
 
 const SHEET: &str = r#"
