@@ -73,7 +73,7 @@ enum Command {
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-enum AovFormat {
+pub(crate) enum AovFormat {
     /// Linear float OpenEXR only.
     Exr,
     /// sRGB 8-bit PNG only.
@@ -120,13 +120,13 @@ pub(crate) struct SceneArgs {
     pub(crate) samples: Option<u32>,
     /// Largest file (scene, model, mesh or texture) Lancer will read, in MB.
     #[arg(long, value_name = "MB", default_value_t = MAX_FILE_MB, value_parser = clap::value_parser!(u64).range(1..))]
-    max_file_size: u64,
+    pub(crate) max_file_size: u64,
     /// The most pixels a scene's textures may hold together (each is refused from its header).
     #[arg(long, value_name = "N", default_value_t = lancer_scene::MAX_TEXTURE_PIXELS, value_parser = clap::value_parser!(u64).range(1..))]
-    max_texture_pixels: u64,
+    pub(crate) max_texture_pixels: u64,
     /// The most triangles a scene's meshes may hold together (polygons counted as fanned).
     #[arg(long, value_name = "N", default_value_t = lancer_scene::MAX_TRIANGLES, value_parser = clap::value_parser!(usize))]
-    max_triangles: usize,
+    pub(crate) max_triangles: usize,
     /// Meshes and textures only from under the scene's folder (the studio sets it).
     #[arg(skip)]
     confined: bool,
@@ -570,15 +570,7 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
     if let Some(s) = args.samples {
         img.samples = s;
     }
-    // Every term keeps a float image of the frame: bound the total before allocating any.
-    let pixels = img.width as u64 * img.height as u64;
-    if pixels > MAX_PIXELS {
-        bail!(
-            "an image of {}x{} is {pixels} pixels; Lancer renders at most {MAX_PIXELS} (8192x8192), one float image per term",
-            img.width,
-            img.height
-        );
-    }
+    check_pixels(img)?;
     let mut identity = sources.into_inner();
     let img = &scene.image;
     identity.model = crate::part::digest(crate::stats::effective_model(&pipeline, img).as_bytes());
@@ -591,6 +583,19 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
     }
     identity.image = crate::part::digest(&settings);
     Ok(Loaded { scene, pipeline, warnings, places, identity, name, source: src, load_time })
+}
+
+/// Every term keeps a float image of the frame: the total is bounded before any is allocated.
+pub(crate) fn check_pixels(img: &lancer_core::ImageSettings) -> Result<()> {
+    let pixels = img.width as u64 * img.height as u64;
+    if pixels > MAX_PIXELS {
+        bail!(
+            "an image of {}x{} is {pixels} pixels; Lancer renders at most {MAX_PIXELS} (8192x8192), one float image per term",
+            img.width,
+            img.height
+        );
+    }
+    Ok(())
 }
 
 /// `args`' changes to the model `pipeline`, in this order: its model file (what the file sets),
@@ -1057,7 +1062,7 @@ const MANIFEST: &str = "manifest.json";
 /// One EXR and one PNG per term, the background layer when it is not black, the beauty image,
 /// and the manifest. Images an earlier render listed in the folder's manifest that this one does
 /// not write are removed: they would no longer sum to the beauty image.
-fn write_aovs(
+pub(crate) fn write_aovs(
     dir: &Path,
     frame: &Frame,
     beauty: &[glam::Vec3],

@@ -15,6 +15,8 @@ pub use build::{
     load_scene_within, toml_error,
 };
 pub use check::check;
+/// The largest colour channel and light intensity a scene may give (what edits are held to too).
+pub use doc::{MAX_CHANNEL, MAX_LIGHT};
 pub use error::{LoadError, LoadErrorKind, Place, Warning};
 pub use texture::MAX_TEXTURE_PIXELS;
 

@@ -45,13 +45,8 @@ pub enum PrepareError {
 pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
     let world = &scene.world;
     let origin = scene.camera.origin;
-    let mut mats: Vec<(hecs::Entity, Material)> =
-        world.query::<(hecs::Entity, &Material)>().iter().map(|(e, m)| (e, *m)).collect();
-    mats.sort_by_key(|(e, _)| e.id());
-    let index: HashMap<hecs::Entity, u32> = mats.iter().enumerate().map(|(i, (e, _))| (*e, i as u32)).collect();
-    let mut materials: Vec<Material> = mats.into_iter().map(|(_, m)| m).collect();
-    let default_material = materials.len() as u32;
-    materials.push(Material::default());
+    let (materials, index) = materials_of(world);
+    let default_material = materials.len() as u32 - 1;
 
     let mut objs: Vec<(hecs::Entity, Shape, Transform, Option<MaterialOf>)> = world
         .query::<(hecs::Entity, &Shape, &Transform, Option<&MaterialOf>)>()
@@ -69,6 +64,29 @@ pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
             .push(Object::new(shape, transform.seen_from(origin), material).ok_or(PrepareError::SingularTransform(i))?);
     }
 
+    Ok(Prepared {
+        origin,
+        geometry: Geometry::new(objects),
+        materials,
+        lights: lights_of(world, origin),
+        textures: scene.textures.clone(),
+    })
+}
+
+/// The material table in entity creation order, the default material last, and each material
+/// entity's index in it.
+fn materials_of(world: &hecs::World) -> (Vec<Material>, HashMap<hecs::Entity, u32>) {
+    let mut mats: Vec<(hecs::Entity, Material)> =
+        world.query::<(hecs::Entity, &Material)>().iter().map(|(e, m)| (e, *m)).collect();
+    mats.sort_by_key(|(e, _)| e.id());
+    let index: HashMap<hecs::Entity, u32> = mats.iter().enumerate().map(|(i, (e, _))| (*e, i as u32)).collect();
+    let mut materials: Vec<Material> = mats.into_iter().map(|(_, m)| m).collect();
+    materials.push(Material::default());
+    (materials, index)
+}
+
+/// The lights in entity creation order, placed from `origin`.
+fn lights_of(world: &hecs::World, origin: DVec3) -> Vec<Light> {
     let mut lights: Vec<(hecs::Entity, Light)> = world
         .query::<(hecs::Entity, &Light, Option<&Position>)>()
         .iter()
@@ -78,11 +96,25 @@ pub fn prepare(scene: &Scene) -> Result<Prepared, PrepareError> {
         })
         .collect();
     lights.sort_by_key(|(e, _)| e.id());
-    Ok(Prepared {
-        origin,
-        geometry: Geometry::new(objects),
-        materials,
-        lights: lights.into_iter().map(|(_, l)| l).collect(),
-        textures: scene.textures.clone(),
-    })
+    lights.into_iter().map(|(_, l)| l).collect()
+}
+
+impl Prepared {
+    /// Takes the materials and lights of `scene` again (edited in its World since `prepare`),
+    /// keeping the objects and their BVH: what [`prepare`] would give when no object, no
+    /// material link and not the camera's position changed. `false` (and nothing changed) when
+    /// the camera moved or the World holds another number of materials or lights: prepare
+    /// again then.
+    pub fn refresh_shading(&mut self, scene: &Scene) -> bool {
+        let (materials, _) = materials_of(&scene.world);
+        let lights = lights_of(&scene.world, self.origin);
+        if scene.camera.origin != self.origin
+            || materials.len() != self.materials.len()
+            || lights.len() != self.lights.len()
+        {
+            return false;
+        }
+        (self.materials, self.lights) = (materials, lights);
+        true
+    }
 }
