@@ -346,9 +346,9 @@ impl PyTerm {
         })?;
         if array.shape() != [n, 3] {
             return Err(PyValueError::new_err(format!(
-                "term `{}` returned an array of shape {:?}; expected ({n}, 3), one colour per hit",
+                "term `{}` returned an array of shape ({}); expected ({n}, 3), one colour per hit",
                 self.name,
-                array.shape()
+                array.shape().iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", ")
             )));
         }
         let read = array.readonly();
