@@ -118,3 +118,70 @@ impl Prepared {
         true
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::{DVec3, Mat3A, Vec3};
+    use lancer_core::{Camera, ImageSettings, Light, Material, MaterialOf, Meta, Position, Scene, Transform};
+    use lancer_shapes::Shape;
+
+    use super::prepare;
+
+    /// A sphere with its material, a second material, a light far from the origin (its f64
+    /// position beside it) and a camera away from the origin.
+    fn scene() -> (Scene, hecs::Entity, hecs::Entity) {
+        let mut world = hecs::World::new();
+        let red = world.spawn((Material { color: Vec3::new(1.0, 0.0, 0.0), ..Material::default() },));
+        world.spawn((Material { shine: 0.5, ..Material::default() },));
+        world.spawn((Shape::Sphere, Transform::new(Mat3A::IDENTITY, DVec3::new(0.0, 0.0, 5.0)), MaterialOf(red)));
+        let at = DVec3::new(1.0e6 + 0.25, 3.0, -2.0);
+        let light = world.spawn((
+            Light { at: at.as_vec3(), color: Vec3::ONE, intensity: 1.0, size: 0.0 },
+            Position(at),
+        ));
+        let camera = Camera::look_at(DVec3::new(1.0e6, 0.0, 0.0), DVec3::new(0.0, 0.0, 5.0), Vec3::Y, 40.0).unwrap();
+        let scene = Scene { world, camera, image: ImageSettings::default(), meta: Meta::default(), textures: vec![] };
+        (scene, red, light)
+    }
+
+    #[test]
+    fn refresh_after_editing_materials_and_lights_equals_a_new_prepare() {
+        let (scene, red, light) = scene();
+        let mut prepared = prepare(&scene).unwrap();
+        {
+            let mut m = scene.world.get::<&mut Material>(red).unwrap();
+            m.spec = 0.75;
+            m.color = Vec3::new(0.2, 0.4, 0.6);
+        }
+        scene.world.get::<&mut Light>(light).unwrap().intensity = 2.5;
+        scene.world.get::<&mut Position>(light).unwrap().0 = DVec3::new(1.0e6 - 7.0, 1.0, 1.0);
+        assert!(prepared.refresh_shading(&scene));
+        let fresh = prepare(&scene).unwrap();
+        assert_eq!(prepared.materials, fresh.materials);
+        assert_eq!(prepared.lights, fresh.lights);
+        assert_eq!(prepared.materials[0].spec, 0.75);
+        // Placed from the camera in f64: exactly -7 from the camera's x.
+        assert_eq!(prepared.lights[0].at, Vec3::new(-7.0, 1.0, 1.0));
+        assert_eq!(prepared.lights[0].intensity, 2.5);
+    }
+
+    #[test]
+    fn refresh_refuses_a_moved_camera_or_a_new_light_and_changes_nothing() {
+        let (mut scene, _, _) = scene();
+        let mut prepared = prepare(&scene).unwrap();
+        let before = (prepared.materials.clone(), prepared.lights.clone());
+        scene.camera = Camera::look_at(DVec3::new(0.0, 0.0, -1.0), DVec3::new(0.0, 0.0, 5.0), Vec3::Y, 40.0).unwrap();
+        assert!(!prepared.refresh_shading(&scene));
+        let (mut scene, _, _) = scene_with_second_light();
+        assert!(!prepared.refresh_shading(&scene));
+        scene.world.spawn((Material::default(),));
+        assert!(!prepared.refresh_shading(&scene));
+        assert_eq!((prepared.materials, prepared.lights), before);
+    }
+
+    fn scene_with_second_light() -> (Scene, hecs::Entity, hecs::Entity) {
+        let (mut scene, red, light) = scene();
+        scene.world.spawn((Light { at: Vec3::new(0.0, 9.0, 0.0), color: Vec3::ONE, intensity: 1.0, size: 0.0 },));
+        (scene, red, light)
+    }
+}
