@@ -7,8 +7,8 @@ mod term;
 mod views;
 
 use std::path::PathBuf;
-use std::sync::atomic::Ordering;
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
@@ -104,8 +104,7 @@ fn term_list(terms: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<String>>> 
 }
 
 fn u8_depth(d: Option<i64>) -> PyResult<Option<u8>> {
-    d.map(|d| u8::try_from(d).map_err(|_| PyValueError::new_err(format!("max_depth {d} is not in 0..=64"))))
-        .transpose()
+    d.map(|d| u8::try_from(d).map_err(|_| PyValueError::new_err(format!("max_depth {d} is not in 0..=64")))).transpose()
 }
 
 fn positive(what: &str, v: Option<i64>) -> PyResult<Option<u32>> {
@@ -425,7 +424,12 @@ impl Frame {
     /// The PNG bytes (sRGB, 8-bit) of the beauty image, or of the layer `layer`, its values
     /// times `exposure`.
     #[pyo3(signature = (layer=None, exposure=1.0))]
-    fn png<'py>(&self, py: Python<'py>, layer: Option<&str>, exposure: f32) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
+    fn png<'py>(
+        &self,
+        py: Python<'py>,
+        layer: Option<&str>,
+        exposure: f32,
+    ) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
         let array = match layer {
             None => &self.beauty,
             Some(name) => match self.names.iter().position(|n| n == name) {

@@ -7,7 +7,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, LazyLock, Mutex, MutexGuard};
 
 use glam::{DVec3, Vec3};
-use lancer_shading::{Chunk as TermChunk, ParamError, ParamSpec, Params, Registry, ShadeContext, Term, TermOutput, TermSpec};
+use lancer_shading::{
+    Chunk as TermChunk, ParamError, ParamSpec, Params, Registry, ShadeContext, Term, TermOutput, TermSpec,
+};
 use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -104,9 +106,7 @@ const BUILDERS: [fn(&mut Params) -> Result<Box<dyn Term>, ParamError>; SLOTS] = 
 );
 
 fn build(slot: usize, params: &mut Params) -> Result<Box<dyn Term>, ParamError> {
-    let context = BUILDING
-        .with(|b| b.borrow().clone())
-        .unwrap_or_else(|| Arc::new(RenderContext::new(DVec3::ZERO)));
+    let context = BUILDING.with(|b| b.borrow().clone()).unwrap_or_else(|| Arc::new(RenderContext::new(DVec3::ZERO)));
     let terms = py_terms();
     let s = &terms[slot];
     let mut values = Vec::with_capacity(s.params.len());
@@ -172,7 +172,11 @@ pub fn register_term(
     let what = fn_.getattr("__qualname__").and_then(|q| q.extract::<String>()).unwrap_or_else(|_| "a function".into());
     let specs: Vec<ParamSpec> = values
         .iter()
-        .map(|(k, v)| ParamSpec { name: leak(k.clone()), default: leak(format!("{v}")), doc: "a parameter of the Python term" })
+        .map(|(k, v)| ParamSpec {
+            name: leak(k.clone()),
+            default: leak(format!("{v}")),
+            doc: "a parameter of the Python term",
+        })
         .collect();
     let spec = TermSpec {
         name: static_name,
@@ -184,7 +188,9 @@ pub fn register_term(
         mistake: None,
     };
     let slot = Slot { name: static_name, func: fn_.clone().unbind(), reads_lights, params: values, spec, active: true };
-    let old = if index < terms.len() { Some(std::mem::replace(&mut terms[index], slot)) } else {
+    let old = if index < terms.len() {
+        Some(std::mem::replace(&mut terms[index], slot))
+    } else {
         terms.push(slot);
         None
     };
@@ -298,7 +304,13 @@ fn scalars(py: Python<'_>, v: impl Iterator<Item = f32>) -> Py<PyAny> {
 }
 
 impl PyTerm {
-    fn call(&self, py: Python<'_>, ctx: &ShadeContext<'_>, chunk: TermChunk<'_>, lanes: &[usize]) -> PyResult<Vec<Vec3>> {
+    fn call(
+        &self,
+        py: Python<'_>,
+        ctx: &ShadeContext<'_>,
+        chunk: TermChunk<'_>,
+        lanes: &[usize],
+    ) -> PyResult<Vec<Vec3>> {
         let n = lanes.len();
         let hits = chunk.hits;
         let normals: Vec<Vec3> = lanes.iter().map(|&l| hits.facing_normal(l)).collect();
@@ -339,7 +351,10 @@ impl PyTerm {
         let out = self.func.bind(py).call1((c,))?;
         let np = py.import("numpy")?;
         let array = np.call_method1("ascontiguousarray", (out, "float32")).map_err(|e| {
-            PyTypeError::new_err(format!("term `{}` returned something that is not an array of numbers: {e}", self.name))
+            PyTypeError::new_err(format!(
+                "term `{}` returned something that is not an array of numbers: {e}",
+                self.name
+            ))
         })?;
         let array = array.cast_into::<numpy::PyArray2<f32>>().map_err(|_| {
             PyValueError::new_err(format!("term `{}` must return an array of shape ({n}, 3)", self.name))

@@ -234,7 +234,10 @@ pub struct Light {
 impl Light {
     fn entity(&self, py: Python<'_>) -> PyResult<hecs::Entity> {
         let s = self.scene.borrow(py);
-        light_entities(&s.doc.scene.world).get(self.index).copied().ok_or_else(|| PyIndexError::new_err("no such light"))
+        light_entities(&s.doc.scene.world)
+            .get(self.index)
+            .copied()
+            .ok_or_else(|| PyIndexError::new_err("no such light"))
     }
 
     fn read(&self, py: Python<'_>) -> PyResult<(CoreLight, DVec3)> {
@@ -345,8 +348,9 @@ impl Camera {
     }
 
     fn set(&self, py: Python<'_>, from: DVec3, to: DVec3, up: Vec3, fov: f32) -> PyResult<()> {
-        let c = CoreCamera::look_at(from, to, up, fov)
-            .map_err(|e| PyValueError::new_err(format!("bad camera: {e:?} (from {from}, to {to}, up {up}, fov {fov})")))?;
+        let c = CoreCamera::look_at(from, to, up, fov).map_err(|e| {
+            PyValueError::new_err(format!("bad camera: {e:?} (from {from}, to {to}, up {up}, fov {fov})"))
+        })?;
         self.scene.borrow_mut(py).doc.scene.camera = c;
         Ok(())
     }
@@ -408,7 +412,9 @@ impl Camera {
     #[setter]
     fn set_fov(&self, py: Python<'_>, fov: f64) -> PyResult<()> {
         if !(fov > 0.0 && fov < 180.0) {
-            return Err(PyValueError::new_err(format!("fov: expected degrees strictly between 0 and 180, found {fov}")));
+            return Err(PyValueError::new_err(format!(
+                "fov: expected degrees strictly between 0 and 180, found {fov}"
+            )));
         }
         let mut s = self.scene.borrow_mut(py);
         s.doc.scene.camera.tan_half_fov = (fov.to_radians() / 2.0).tan() as f32;

@@ -135,10 +135,8 @@ mod tests {
         world.spawn((Material { shine: 0.5, ..Material::default() },));
         world.spawn((Shape::Sphere, Transform::new(Mat3A::IDENTITY, DVec3::new(0.0, 0.0, 5.0)), MaterialOf(red)));
         let at = DVec3::new(1.0e6 + 0.25, 3.0, -2.0);
-        let light = world.spawn((
-            Light { at: at.as_vec3(), color: Vec3::ONE, intensity: 1.0, size: 0.0 },
-            Position(at),
-        ));
+        let light =
+            world.spawn((Light { at: at.as_vec3(), color: Vec3::ONE, intensity: 1.0, size: 0.0 }, Position(at)));
         let camera = Camera::look_at(DVec3::new(1.0e6, 0.0, 0.0), DVec3::new(0.0, 0.0, 5.0), Vec3::Y, 40.0).unwrap();
         let scene = Scene { world, camera, image: ImageSettings::default(), meta: Meta::default(), textures: vec![] };
         (scene, red, light)
