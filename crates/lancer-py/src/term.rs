@@ -96,11 +96,14 @@ fn build_slot<const N: usize>(params: &mut Params) -> Result<Box<dyn Term>, Para
     build(N, params)
 }
 
+/// What the registry calls to build a slot's term from a model's parameters.
+type Builder = fn(&mut Params) -> Result<Box<dyn Term>, ParamError>;
+
 macro_rules! slots {
-    ($($n:literal)*) => { [$(build_slot::<$n> as fn(&mut Params) -> Result<Box<dyn Term>, ParamError>),*] };
+    ($($n:literal)*) => { [$(build_slot::<$n> as Builder),*] };
 }
 
-const BUILDERS: [fn(&mut Params) -> Result<Box<dyn Term>, ParamError>; SLOTS] = slots!(
+const BUILDERS: [Builder; SLOTS] = slots!(
     0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31
     32 33 34 35 36 37 38 39 40 41 42 43 44 45 46 47 48 49 50 51 52 53 54 55 56 57 58 59 60 61 62 63
 );
