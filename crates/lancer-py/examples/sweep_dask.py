@@ -18,6 +18,7 @@ same bits as the same render made locally.
 """
 
 import argparse
+import contextlib
 import pathlib
 
 import numpy as np
@@ -75,12 +76,11 @@ def main():
 
     shines = np.linspace(0.5, 0.99, args.shines)
     ns = np.linspace(1.0, 2.0, args.ns)
-    cluster = None if args.scheduler else LocalCluster(threads_per_worker=1)
-    with Client(args.scheduler or cluster) as client:
+    with contextlib.ExitStack() as stack:
+        address = args.scheduler or stack.enter_context(LocalCluster(threads_per_worker=1))
+        client = stack.enter_context(Client(address))
         print(f"{args.shines * args.ns} renders on {client}")
         images = sweep(client, args.scene or default_scene(), args.material, shines, ns, args.width, args.layer)
-    if cluster is not None:
-        cluster.close()
     np.savez_compressed(args.out, images=images, shine=shines, n=ns)
     print(f"wrote {args.out}: images {images.shape} {images.dtype}, mean radiance {images.mean():.4f}")
 

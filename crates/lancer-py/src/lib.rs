@@ -22,7 +22,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyString};
 
 create_exception!(
-    _lancer,
+    lancer,
     SceneError,
     PyException,
     "A scene or model file that cannot be loaded: `.file`, `.line`, `.column` (1-based; 0 when the error has no place in the file) and `.message`, as the command line says them."
@@ -96,11 +96,17 @@ fn term_list(terms: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<String>>> 
     let Some(t) = terms else { return Ok(None) };
     if let Ok(s) = t.cast::<PyString>() {
         let s: String = s.extract()?;
-        return Ok(Some(s.split(',').map(|e| e.trim().to_owned()).filter(|e| !e.is_empty()).collect()));
+        // Empty entries are kept: the model's parser refuses them with its own message, as
+        // `--terms` does.
+        return Ok(Some(s.split(',').map(|e| e.trim().to_owned()).collect()));
     }
-    t.extract::<Vec<String>>()
-        .map(Some)
-        .map_err(|_| PyValueError::new_err("terms: expected a string such as \"ambient,diffuse\" or a list of terms"))
+    let list = t.extract::<Vec<String>>().map_err(|_| {
+        PyValueError::new_err("terms: expected a string such as \"ambient,diffuse\" or a list of terms")
+    })?;
+    if list.is_empty() {
+        return Err(PyValueError::new_err("terms: expected at least one term, such as [\"ambient\", \"diffuse\"]"));
+    }
+    Ok(Some(list))
 }
 
 fn u8_depth(d: Option<i64>) -> PyResult<Option<u8>> {
@@ -183,9 +189,9 @@ impl Scene {
 
     /// The lights, in the file's order.
     #[getter]
-    fn lights(slf: Py<Scene>, py: Python<'_>) -> Vec<views::Light> {
-        let n = views::light_entities(&slf.borrow(py).doc.scene.world).len();
-        (0..n).map(|index| views::Light { scene: slf.clone_ref(py), index }).collect()
+    fn lights(slf: Py<Scene>, py: Python<'_>) -> PyResult<Vec<views::Light>> {
+        let n = views::light_entities(&slf.try_borrow(py).map_err(views::busy)?.doc.scene.world).len();
+        Ok((0..n).map(|index| views::Light { scene: slf.clone_ref(py), index }).collect())
     }
 
     /// The camera.
@@ -312,7 +318,9 @@ impl Scene {
             embed::apply(&registry, &self.doc.pipeline, &self.doc.scene.image, &settings)
         })
         .map_err(value_error)?;
-        let (x, y) = (u32::try_from(x).unwrap_or(u32::MAX), u32::try_from(y).unwrap_or(u32::MAX));
+        let (Ok(x), Ok(y)) = (u32::try_from(x), u32::try_from(y)) else {
+            return Err(PyValueError::new_err(format!("pixel {x},{y}: expected x and y from 0, inside the image")));
+        };
         self.prepared()?;
         let prepared = self.prepared.as_ref().expect("prepared above");
         let json = embed::explain_json(&self.doc, prepared, &pipeline, &image, x, y).map_err(value_error)?;

@@ -137,14 +137,14 @@ fn rebuild<'a>(into: &mut Registry, terms: impl IntoIterator<Item = &'a Slot>) -
 /// names to defaults (numbers), given in a model as `name:key=value` and read as
 /// `chunk.params`. Registering a name again replaces the function.
 #[pyfunction]
-#[pyo3(signature = (name, fn_, reads_lights=true, params=None))]
+#[pyo3(signature = (name, r#fn, reads_lights=true, params=None))]
 pub fn register_term(
     name: &str,
-    fn_: &Bound<'_, PyAny>,
+    r#fn: &Bound<'_, PyAny>,
     reads_lights: bool,
     params: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<()> {
-    if !fn_.is_callable() {
+    if !r#fn.is_callable() {
         return Err(PyTypeError::new_err("register_term: fn must be callable, fn(chunk) -> (N, 3) array"));
     }
     let builtins = Registry::with_builtins();
@@ -158,9 +158,17 @@ pub fn register_term(
             let value: f64 = v
                 .extract()
                 .map_err(|_| PyTypeError::new_err(format!("params: the default of `{key}` must be a number")))?;
+            if key == "weight" || !value.is_finite() {
+                return Err(PyValueError::new_err(format!(
+                    "params: `{key}` = {value}: expected a finite default and a name other than `weight` (every term's own)"
+                )));
+            }
             values.push((key, value));
         }
     }
+    // Python code (an attribute lookup here, a replaced function's `__del__` below) runs only
+    // while the registry's locks are not held, so another thread it lets in cannot wait on them.
+    let what = r#fn.getattr("__qualname__").and_then(|q| q.extract::<String>()).unwrap_or_else(|_| "a function".into());
     let mut registry = registry();
     let mut terms = py_terms();
     let index = terms.iter().position(|s| s.name == name).unwrap_or(terms.len());
@@ -172,7 +180,6 @@ pub fn register_term(
         Some(s) => s.name,
         None => leak(name.to_owned()),
     };
-    let what = fn_.getattr("__qualname__").and_then(|q| q.extract::<String>()).unwrap_or_else(|_| "a function".into());
     let specs: Vec<ParamSpec> = values
         .iter()
         .map(|(k, v)| ParamSpec {
@@ -190,7 +197,8 @@ pub fn register_term(
         build: BUILDERS[index],
         mistake: None,
     };
-    let slot = Slot { name: static_name, func: fn_.clone().unbind(), reads_lights, params: values, spec, active: true };
+    let slot =
+        Slot { name: static_name, func: r#fn.clone().unbind(), reads_lights, params: values, spec, active: true };
     let old = if index < terms.len() {
         Some(std::mem::replace(&mut terms[index], slot))
     } else {
@@ -206,6 +214,9 @@ pub fn register_term(
         }
         return Err(PyValueError::new_err(format!("register_term: {e}")));
     }
+    drop(terms);
+    drop(registry);
+    drop(old);
     Ok(())
 }
 

@@ -9,6 +9,11 @@ use pyo3::prelude::*;
 
 use crate::Scene;
 
+/// The error of a scene read or changed while it renders (from a Python term or another thread).
+pub(crate) fn busy<E>(_: E) -> PyErr {
+    pyo3::exceptions::PyRuntimeError::new_err("the scene is rendering: read or change it after `render` returns")
+}
+
 /// The material entities in the prepared table's order (the order of `Places::materials`).
 fn material_entities(world: &hecs::World) -> Vec<hecs::Entity> {
     let mut e: Vec<hecs::Entity> = world.query::<(hecs::Entity, &CoreMaterial)>().iter().map(|(e, _)| e).collect();
@@ -58,7 +63,7 @@ pub struct Materials {
 #[pymethods]
 impl Materials {
     fn __getitem__(&self, py: Python<'_>, name: &str) -> PyResult<Material> {
-        let s = self.scene.borrow(py);
+        let s = self.scene.try_borrow(py).map_err(busy)?;
         match s.doc.places.materials.iter().position(|n| n == name) {
             Some(index) => Ok(Material { scene: self.scene.clone_ref(py), index }),
             None => Err(PyKeyError::new_err(format!(
@@ -68,26 +73,26 @@ impl Materials {
         }
     }
 
-    fn __len__(&self, py: Python<'_>) -> usize {
-        self.scene.borrow(py).doc.places.materials.len()
+    fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.places.materials.len())
     }
 
-    fn __contains__(&self, py: Python<'_>, name: &str) -> bool {
-        self.scene.borrow(py).doc.places.materials.iter().any(|n| n == name)
+    fn __contains__(&self, py: Python<'_>, name: &str) -> PyResult<bool> {
+        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.places.materials.iter().any(|n| n == name))
     }
 
     /// The materials' names, in the file's order.
-    fn keys(&self, py: Python<'_>) -> Vec<String> {
-        self.scene.borrow(py).doc.places.materials.clone()
+    fn keys(&self, py: Python<'_>) -> PyResult<Vec<String>> {
+        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.places.materials.clone())
     }
 
     fn __iter__(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
-        let keys = self.keys(py);
+        let keys = self.keys(py)?;
         Ok(pyo3::types::PyList::new(py, keys)?.call_method0("__iter__")?.unbind())
     }
 
-    fn __repr__(&self, py: Python<'_>) -> String {
-        format!("<lancer.Materials {}>", self.keys(py).join(", "))
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(format!("<lancer.Materials {}>", self.keys(py)?.join(", ")))
     }
 }
 
@@ -100,13 +105,13 @@ pub struct Material {
 
 impl Material {
     fn read(&self, py: Python<'_>) -> PyResult<CoreMaterial> {
-        let s = self.scene.borrow(py);
+        let s = self.scene.try_borrow(py).map_err(busy)?;
         let e = material_entities(&s.doc.scene.world)[self.index];
         Ok(*s.doc.scene.world.get::<&CoreMaterial>(e).map_err(|_| PyValueError::new_err("the material is gone"))?)
     }
 
     fn write(&self, py: Python<'_>, f: impl FnOnce(&mut CoreMaterial)) -> PyResult<()> {
-        let s = self.scene.borrow_mut(py);
+        let s = self.scene.try_borrow_mut(py).map_err(busy)?;
         let e = material_entities(&s.doc.scene.world)[self.index];
         let mut m =
             s.doc.scene.world.get::<&mut CoreMaterial>(e).map_err(|_| PyValueError::new_err("the material is gone"))?;
@@ -204,15 +209,15 @@ impl Material {
 
     /// The material's name in the file.
     #[getter]
-    fn name(&self, py: Python<'_>) -> String {
-        self.scene.borrow(py).doc.places.materials[self.index].clone()
+    fn name(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.places.materials[self.index].clone())
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         let m = self.read(py)?;
         Ok(format!(
             "<lancer.Material {}: color={:?} ambi={} diff={} spec={} shine={} alpha={} n={}>",
-            self.name(py),
+            self.name(py)?,
             m.color.to_array(),
             m.ambi,
             m.diff,
@@ -233,7 +238,7 @@ pub struct Light {
 
 impl Light {
     fn entity(&self, py: Python<'_>) -> PyResult<hecs::Entity> {
-        let s = self.scene.borrow(py);
+        let s = self.scene.try_borrow(py).map_err(busy)?;
         light_entities(&s.doc.scene.world)
             .get(self.index)
             .copied()
@@ -242,7 +247,7 @@ impl Light {
 
     fn read(&self, py: Python<'_>) -> PyResult<(CoreLight, DVec3)> {
         let e = self.entity(py)?;
-        let s = self.scene.borrow(py);
+        let s = self.scene.try_borrow(py).map_err(busy)?;
         let world = &s.doc.scene.world;
         let l = *world.get::<&CoreLight>(e).map_err(|_| PyIndexError::new_err("no such light"))?;
         let at = world.get::<&Position>(e).map(|p| p.0).unwrap_or(l.at.as_dvec3());
@@ -251,7 +256,7 @@ impl Light {
 
     fn write(&self, py: Python<'_>, f: impl FnOnce(&mut CoreLight)) -> PyResult<()> {
         let e = self.entity(py)?;
-        let s = self.scene.borrow_mut(py);
+        let s = self.scene.try_borrow_mut(py).map_err(busy)?;
         let mut l = s.doc.scene.world.get::<&mut CoreLight>(e).map_err(|_| PyIndexError::new_err("no such light"))?;
         f(&mut l);
         Ok(())
@@ -272,7 +277,7 @@ impl Light {
         let p = finite_point("at", p)?;
         let e = self.entity(py)?;
         {
-            let mut s = self.scene.borrow_mut(py);
+            let mut s = self.scene.try_borrow_mut(py).map_err(busy)?;
             let world = &mut s.doc.scene.world;
             if let Ok(mut l) = world.get::<&mut CoreLight>(e) {
                 l.at = p.as_vec3();
@@ -339,8 +344,8 @@ pub struct Camera {
 }
 
 impl Camera {
-    fn get(&self, py: Python<'_>) -> CoreCamera {
-        self.scene.borrow(py).doc.scene.camera
+    fn get(&self, py: Python<'_>) -> PyResult<CoreCamera> {
+        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.scene.camera)
     }
 
     fn fov_of(c: &CoreCamera) -> f32 {
@@ -351,7 +356,7 @@ impl Camera {
         let c = CoreCamera::look_at(from, to, up, fov).map_err(|e| {
             PyValueError::new_err(format!("bad camera: {e:?} (from {from}, to {to}, up {up}, fov {fov})"))
         })?;
-        self.scene.borrow_mut(py).doc.scene.camera = c;
+        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.camera = c;
         Ok(())
     }
 }
@@ -360,53 +365,53 @@ impl Camera {
 impl Camera {
     /// The eye's position, in world space.
     #[getter]
-    fn position(&self, py: Python<'_>) -> (f64, f64, f64) {
-        let c = self.get(py);
-        (c.origin.x, c.origin.y, c.origin.z)
+    fn position(&self, py: Python<'_>) -> PyResult<(f64, f64, f64)> {
+        let c = self.get(py)?;
+        Ok((c.origin.x, c.origin.y, c.origin.z))
     }
 
     /// Moves the eye, keeping the viewing direction.
     #[setter]
     fn set_position(&self, py: Python<'_>, p: [f64; 3]) -> PyResult<()> {
         let p = finite_point("position", p)?;
-        self.scene.borrow_mut(py).doc.scene.camera.origin = p;
+        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.camera.origin = p;
         Ok(())
     }
 
     /// A point the camera looks at (the eye plus the viewing direction).
     #[getter]
-    fn look_at(&self, py: Python<'_>) -> (f64, f64, f64) {
-        let c = self.get(py);
+    fn look_at(&self, py: Python<'_>) -> PyResult<(f64, f64, f64)> {
+        let c = self.get(py)?;
         let to = c.origin + c.forward.as_dvec3();
-        (to.x, to.y, to.z)
+        Ok((to.x, to.y, to.z))
     }
 
     /// Turns the camera to look at this point (its up direction and field of view kept).
     #[setter]
     fn set_look_at(&self, py: Python<'_>, to: [f64; 3]) -> PyResult<()> {
         let to = finite_point("look_at", to)?;
-        let c = self.get(py);
+        let c = self.get(py)?;
         self.set(py, c.origin, to, c.up, Self::fov_of(&c))
     }
 
     /// The image's up direction.
     #[getter]
-    fn up(&self, py: Python<'_>) -> (f32, f32, f32) {
-        let c = self.get(py);
-        (c.up.x, c.up.y, c.up.z)
+    fn up(&self, py: Python<'_>) -> PyResult<(f32, f32, f32)> {
+        let c = self.get(py)?;
+        Ok((c.up.x, c.up.y, c.up.z))
     }
 
     #[setter]
     fn set_up(&self, py: Python<'_>, up: [f64; 3]) -> PyResult<()> {
-        let c = self.get(py);
+        let c = self.get(py)?;
         let up = DVec3::from(up).as_vec3();
         self.set(py, c.origin, c.origin + c.forward.as_dvec3(), up, Self::fov_of(&c))
     }
 
     /// The vertical field of view, in degrees.
     #[getter]
-    fn fov(&self, py: Python<'_>) -> f32 {
-        Self::fov_of(&self.get(py))
+    fn fov(&self, py: Python<'_>) -> PyResult<f32> {
+        Ok(Self::fov_of(&self.get(py)?))
     }
 
     #[setter]
@@ -416,13 +421,18 @@ impl Camera {
                 "fov: expected degrees strictly between 0 and 180, found {fov}"
             )));
         }
-        let mut s = self.scene.borrow_mut(py);
+        let mut s = self.scene.try_borrow_mut(py).map_err(busy)?;
         s.doc.scene.camera.tan_half_fov = (fov.to_radians() / 2.0).tan() as f32;
         Ok(())
     }
 
-    fn __repr__(&self, py: Python<'_>) -> String {
-        format!("<lancer.Camera at {:?} looking at {:?}, fov {}>", self.position(py), self.look_at(py), self.fov(py))
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(format!(
+            "<lancer.Camera at {:?} looking at {:?}, fov {}>",
+            self.position(py)?,
+            self.look_at(py)?,
+            self.fov(py)?
+        ))
     }
 }
 
@@ -443,63 +453,63 @@ fn side(what: &str, v: i64, hi: i64) -> PyResult<u32> {
 #[pymethods]
 impl Image {
     #[getter]
-    fn width(&self, py: Python<'_>) -> u32 {
-        self.scene.borrow(py).doc.scene.image.width
+    fn width(&self, py: Python<'_>) -> PyResult<u32> {
+        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.scene.image.width)
     }
 
     #[setter]
     fn set_width(&self, py: Python<'_>, v: i64) -> PyResult<()> {
         let v = side("width", v, 16384)?;
-        self.scene.borrow_mut(py).doc.scene.image.width = v;
+        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.image.width = v;
         Ok(())
     }
 
     #[getter]
-    fn height(&self, py: Python<'_>) -> u32 {
-        self.scene.borrow(py).doc.scene.image.height
+    fn height(&self, py: Python<'_>) -> PyResult<u32> {
+        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.scene.image.height)
     }
 
     #[setter]
     fn set_height(&self, py: Python<'_>, v: i64) -> PyResult<()> {
         let v = side("height", v, 16384)?;
-        self.scene.borrow_mut(py).doc.scene.image.height = v;
+        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.image.height = v;
         Ok(())
     }
 
     /// Samples per pixel.
     #[getter]
-    fn samples(&self, py: Python<'_>) -> u32 {
-        self.scene.borrow(py).doc.scene.image.samples
+    fn samples(&self, py: Python<'_>) -> PyResult<u32> {
+        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.scene.image.samples)
     }
 
     #[setter]
     fn set_samples(&self, py: Python<'_>, v: i64) -> PyResult<()> {
         let v = side("samples", v, 4096)?;
-        self.scene.borrow_mut(py).doc.scene.image.samples = v;
+        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.image.samples = v;
         Ok(())
     }
 
     /// What rays that hit nothing see, linear RGB.
     #[getter]
-    fn background(&self, py: Python<'_>) -> (f32, f32, f32) {
-        let b = self.scene.borrow(py).doc.scene.image.background;
-        (b.x, b.y, b.z)
+    fn background(&self, py: Python<'_>) -> PyResult<(f32, f32, f32)> {
+        let b = self.scene.try_borrow(py).map_err(busy)?.doc.scene.image.background;
+        Ok((b.x, b.y, b.z))
     }
 
     #[setter]
     fn set_background(&self, py: Python<'_>, c: [f64; 3]) -> PyResult<()> {
         let c = colour("background", c)?;
-        self.scene.borrow_mut(py).doc.scene.image.background = c;
+        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.image.background = c;
         Ok(())
     }
 
-    fn __repr__(&self, py: Python<'_>) -> String {
-        format!(
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(format!(
             "<lancer.Image {}x{}, {} samples, background {:?}>",
-            self.width(py),
-            self.height(py),
-            self.samples(py),
-            self.background(py)
-        )
+            self.width(py)?,
+            self.height(py)?,
+            self.samples(py)?,
+            self.background(py)?
+        ))
     }
 }

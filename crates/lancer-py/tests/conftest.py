@@ -13,6 +13,8 @@ SCENES = ROOT / "scenes"
 def cli():
     """The `lancer` binary the Python renders are compared with: $LANCER_CLI, or the release build."""
     path = os.environ.get("LANCER_CLI") or str(ROOT / "target" / "release" / "lancer")
+    if os.environ.get("LANCER_CLI") and not os.path.exists(path):
+        pytest.fail(f"LANCER_CLI names no file: {path}")
     if not os.path.exists(path):
         pytest.skip(f"no lancer binary at {path}: build it (cargo build --release) or set LANCER_CLI")
     return path

@@ -182,3 +182,36 @@ def test_frames_display_themselves():
     for name in ["beauty", "ambient", "diffuse", "specular", "mirror", "refraction"]:
         assert f">{name}<" in html
     assert html.count("<img") == 6 + (1 if frame.layers["background"].any() else 0)
+
+
+def test_scene_errors_pickle_with_their_place():
+    import pickle
+
+    with pytest.raises(lancer.SceneError) as caught:
+        lancer.loads("[image]\nwidth = -3\n")
+    again = pickle.loads(pickle.dumps(caught.value))
+    assert type(again) is lancer.SceneError and str(again) == str(caught.value)
+
+
+def test_an_empty_term_list_is_refused_as_the_command_line_refuses_it():
+    scene = lancer.load(SCENES / "showcase.toml")
+    for empty in ["", " , ", []]:
+        with pytest.raises(ValueError):
+            scene.render(width=16, terms=empty)
+
+
+def test_reading_the_scene_while_it_renders_raises_instead_of_panicking():
+    scene = lancer.load(SCENES / "showcase.toml")
+    seen = []
+
+    def peek(chunk):
+        try:
+            scene.materials["red"].shine = 0.5
+        except RuntimeError as e:
+            seen.append(str(e))
+        return np.zeros((len(chunk), 3), dtype=np.float32)
+
+    lancer.register_term(name="py_peek", fn=peek, reads_lights=False)
+    scene.render(width=32, terms="ambient,py_peek", threads=1)
+    assert seen and all("rendering" in m for m in seen)
+    assert scene.materials["red"].shine == pytest.approx(0.95)
