@@ -190,7 +190,7 @@ impl Scene {
     /// The lights, in the file's order.
     #[getter]
     fn lights(slf: Py<Scene>, py: Python<'_>) -> PyResult<Vec<views::Light>> {
-        let n = views::light_entities(&slf.try_borrow(py).map_err(views::busy)?.doc.scene.world).len();
+        let n = views::light_entities(&views::scene_ref(&slf, py)?.doc.scene.world).len();
         Ok((0..n).map(|index| views::Light { scene: slf.clone_ref(py), index }).collect())
     }
 

@@ -10,8 +10,18 @@ use pyo3::prelude::*;
 use crate::Scene;
 
 /// The error of a scene read or changed while it renders (from a Python term or another thread).
-pub(crate) fn busy<E>(_: E) -> PyErr {
+fn busy<E>(_: E) -> PyErr {
     pyo3::exceptions::PyRuntimeError::new_err("the scene is rendering: read or change it after `render` returns")
+}
+
+/// The scene, to read: `RuntimeError` while it renders (its render holds it mutably).
+pub(crate) fn scene_ref<'py>(scene: &'py Py<Scene>, py: Python<'py>) -> PyResult<PyRef<'py, Scene>> {
+    scene.try_borrow(py).map_err(busy)
+}
+
+/// The scene, to change: `RuntimeError` while it renders.
+fn scene_mut<'py>(scene: &'py Py<Scene>, py: Python<'py>) -> PyResult<PyRefMut<'py, Scene>> {
+    scene.try_borrow_mut(py).map_err(busy)
 }
 
 /// The material entities in the prepared table's order (the order of `Places::materials`).
@@ -63,7 +73,7 @@ pub struct Materials {
 #[pymethods]
 impl Materials {
     fn __getitem__(&self, py: Python<'_>, name: &str) -> PyResult<Material> {
-        let s = self.scene.try_borrow(py).map_err(busy)?;
+        let s = scene_ref(&self.scene, py)?;
         match s.doc.places.materials.iter().position(|n| n == name) {
             Some(index) => Ok(Material { scene: self.scene.clone_ref(py), index }),
             None => Err(PyKeyError::new_err(format!(
@@ -74,16 +84,16 @@ impl Materials {
     }
 
     fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
-        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.places.materials.len())
+        Ok(scene_ref(&self.scene, py)?.doc.places.materials.len())
     }
 
     fn __contains__(&self, py: Python<'_>, name: &str) -> PyResult<bool> {
-        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.places.materials.iter().any(|n| n == name))
+        Ok(scene_ref(&self.scene, py)?.doc.places.materials.iter().any(|n| n == name))
     }
 
     /// The materials' names, in the file's order.
     fn keys(&self, py: Python<'_>) -> PyResult<Vec<String>> {
-        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.places.materials.clone())
+        Ok(scene_ref(&self.scene, py)?.doc.places.materials.clone())
     }
 
     fn __iter__(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
@@ -105,13 +115,13 @@ pub struct Material {
 
 impl Material {
     fn read(&self, py: Python<'_>) -> PyResult<CoreMaterial> {
-        let s = self.scene.try_borrow(py).map_err(busy)?;
+        let s = scene_ref(&self.scene, py)?;
         let e = material_entities(&s.doc.scene.world)[self.index];
         Ok(*s.doc.scene.world.get::<&CoreMaterial>(e).map_err(|_| PyValueError::new_err("the material is gone"))?)
     }
 
     fn write(&self, py: Python<'_>, f: impl FnOnce(&mut CoreMaterial)) -> PyResult<()> {
-        let s = self.scene.try_borrow_mut(py).map_err(busy)?;
+        let s = scene_mut(&self.scene, py)?;
         let e = material_entities(&s.doc.scene.world)[self.index];
         let mut m =
             s.doc.scene.world.get::<&mut CoreMaterial>(e).map_err(|_| PyValueError::new_err("the material is gone"))?;
@@ -210,7 +220,7 @@ impl Material {
     /// The material's name in the file.
     #[getter]
     fn name(&self, py: Python<'_>) -> PyResult<String> {
-        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.places.materials[self.index].clone())
+        Ok(scene_ref(&self.scene, py)?.doc.places.materials[self.index].clone())
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
@@ -238,7 +248,7 @@ pub struct Light {
 
 impl Light {
     fn entity(&self, py: Python<'_>) -> PyResult<hecs::Entity> {
-        let s = self.scene.try_borrow(py).map_err(busy)?;
+        let s = scene_ref(&self.scene, py)?;
         light_entities(&s.doc.scene.world)
             .get(self.index)
             .copied()
@@ -247,7 +257,7 @@ impl Light {
 
     fn read(&self, py: Python<'_>) -> PyResult<(CoreLight, DVec3)> {
         let e = self.entity(py)?;
-        let s = self.scene.try_borrow(py).map_err(busy)?;
+        let s = scene_ref(&self.scene, py)?;
         let world = &s.doc.scene.world;
         let l = *world.get::<&CoreLight>(e).map_err(|_| PyIndexError::new_err("no such light"))?;
         let at = world.get::<&Position>(e).map(|p| p.0).unwrap_or(l.at.as_dvec3());
@@ -256,7 +266,7 @@ impl Light {
 
     fn write(&self, py: Python<'_>, f: impl FnOnce(&mut CoreLight)) -> PyResult<()> {
         let e = self.entity(py)?;
-        let s = self.scene.try_borrow_mut(py).map_err(busy)?;
+        let s = scene_mut(&self.scene, py)?;
         let mut l = s.doc.scene.world.get::<&mut CoreLight>(e).map_err(|_| PyIndexError::new_err("no such light"))?;
         f(&mut l);
         Ok(())
@@ -277,7 +287,7 @@ impl Light {
         let p = finite_point("at", p)?;
         let e = self.entity(py)?;
         {
-            let mut s = self.scene.try_borrow_mut(py).map_err(busy)?;
+            let mut s = scene_mut(&self.scene, py)?;
             let world = &mut s.doc.scene.world;
             if let Ok(mut l) = world.get::<&mut CoreLight>(e) {
                 l.at = p.as_vec3();
@@ -345,7 +355,7 @@ pub struct Camera {
 
 impl Camera {
     fn get(&self, py: Python<'_>) -> PyResult<CoreCamera> {
-        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.scene.camera)
+        Ok(scene_ref(&self.scene, py)?.doc.scene.camera)
     }
 
     fn fov_of(c: &CoreCamera) -> f32 {
@@ -356,7 +366,7 @@ impl Camera {
         let c = CoreCamera::look_at(from, to, up, fov).map_err(|e| {
             PyValueError::new_err(format!("bad camera: {e:?} (from {from}, to {to}, up {up}, fov {fov})"))
         })?;
-        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.camera = c;
+        scene_mut(&self.scene, py)?.doc.scene.camera = c;
         Ok(())
     }
 }
@@ -374,7 +384,7 @@ impl Camera {
     #[setter]
     fn set_position(&self, py: Python<'_>, p: [f64; 3]) -> PyResult<()> {
         let p = finite_point("position", p)?;
-        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.camera.origin = p;
+        scene_mut(&self.scene, py)?.doc.scene.camera.origin = p;
         Ok(())
     }
 
@@ -421,7 +431,7 @@ impl Camera {
                 "fov: expected degrees strictly between 0 and 180, found {fov}"
             )));
         }
-        let mut s = self.scene.try_borrow_mut(py).map_err(busy)?;
+        let mut s = scene_mut(&self.scene, py)?;
         s.doc.scene.camera.tan_half_fov = (fov.to_radians() / 2.0).tan() as f32;
         Ok(())
     }
@@ -454,52 +464,52 @@ fn side(what: &str, v: i64, hi: i64) -> PyResult<u32> {
 impl Image {
     #[getter]
     fn width(&self, py: Python<'_>) -> PyResult<u32> {
-        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.scene.image.width)
+        Ok(scene_ref(&self.scene, py)?.doc.scene.image.width)
     }
 
     #[setter]
     fn set_width(&self, py: Python<'_>, v: i64) -> PyResult<()> {
         let v = side("width", v, 16384)?;
-        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.image.width = v;
+        scene_mut(&self.scene, py)?.doc.scene.image.width = v;
         Ok(())
     }
 
     #[getter]
     fn height(&self, py: Python<'_>) -> PyResult<u32> {
-        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.scene.image.height)
+        Ok(scene_ref(&self.scene, py)?.doc.scene.image.height)
     }
 
     #[setter]
     fn set_height(&self, py: Python<'_>, v: i64) -> PyResult<()> {
         let v = side("height", v, 16384)?;
-        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.image.height = v;
+        scene_mut(&self.scene, py)?.doc.scene.image.height = v;
         Ok(())
     }
 
     /// Samples per pixel.
     #[getter]
     fn samples(&self, py: Python<'_>) -> PyResult<u32> {
-        Ok(self.scene.try_borrow(py).map_err(busy)?.doc.scene.image.samples)
+        Ok(scene_ref(&self.scene, py)?.doc.scene.image.samples)
     }
 
     #[setter]
     fn set_samples(&self, py: Python<'_>, v: i64) -> PyResult<()> {
         let v = side("samples", v, 4096)?;
-        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.image.samples = v;
+        scene_mut(&self.scene, py)?.doc.scene.image.samples = v;
         Ok(())
     }
 
     /// What rays that hit nothing see, linear RGB.
     #[getter]
     fn background(&self, py: Python<'_>) -> PyResult<(f32, f32, f32)> {
-        let b = self.scene.try_borrow(py).map_err(busy)?.doc.scene.image.background;
+        let b = scene_ref(&self.scene, py)?.doc.scene.image.background;
         Ok((b.x, b.y, b.z))
     }
 
     #[setter]
     fn set_background(&self, py: Python<'_>, c: [f64; 3]) -> PyResult<()> {
         let c = colour("background", c)?;
-        self.scene.try_borrow_mut(py).map_err(busy)?.doc.scene.image.background = c;
+        scene_mut(&self.scene, py)?.doc.scene.image.background = c;
         Ok(())
     }
 
