@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# The Python package's check, as CI will run it: the wheel built (abi3, with maturin, sharing
-# the repository's target/), installed into a fresh venv, the README's Python section run there,
-# then the package's tests (the API against the CLI's bits, terms written in Python, the example
-# notebook executed by nbclient, the dask sweep on a LocalCluster). Python and venv from Debian
-# where missing; everything else from PyPI. Run from anywhere: bash crates/lancer-py/check.sh
+# The Python package's check, as CI runs it (its "python" step): the wheel built (abi3, with
+# maturin, sharing the repository's target/), installed into a fresh venv, the README's Python
+# section run there, then the package's tests (the API against the CLI's bits, terms written in
+# Python, the example notebook executed by nbclient, the dask sweep on a LocalCluster). Python and
+# venv from Debian where missing; everything else from PyPI. Run from anywhere:
+# bash crates/lancer-py/check.sh
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 export CARGO_TERM_COLOR=never

@@ -59,8 +59,18 @@ pub fn wasm_bindgen(version: &str) -> Result<PathBuf> {
     println!("installing wasm-bindgen-cli {version} into target/tools (cargo install, once)");
     // Not `--locked`: the CLI's own lock file names versions a registry mirror may not carry.
     // Without its default TLS stack (only its test runner downloads anything): a minute less.
+    // Unoptimised (`--debug`): it installs in half the time (71 s against 148 s here) and writes
+    // the same bytes, in 1.7 s a module instead of 0.4 s.
     let status = cargo()
-        .args(["install", "wasm-bindgen-cli", "--no-default-features", "--version", &format!("={version}"), "--root"])
+        .args([
+            "install",
+            "wasm-bindgen-cli",
+            "--no-default-features",
+            "--debug",
+            "--version",
+            &format!("={version}"),
+            "--root",
+        ])
         .arg(&tools)
         .status()
         .context("running cargo install")?;
