@@ -1,7 +1,8 @@
 //! `lancer export pov`: a prepared scene written for POV-Ray 3.7 with the handout's mapping
 //! (`ambient = ambi`, `diffuse = diff`, `phong = spec·shine`, `phong_size = 1/(1−shine)`,
 //! `reflection = spec`, `transmit = alpha` with ambient and diffuse divided by `1 − alpha`,
-//! `ior = n`). Objects keep their canonical shapes and get their placement as a `matrix`; the
+//! `ior = n`; `specular:blinn` as POV-Ray's half-vector `specular = spec·shine` with
+//! `roughness = 1/e`). Objects keep their canonical shapes and get their placement as a `matrix`; the
 //! camera's `right` vector is negated so POV-Ray sees Lancer's right-handed coordinates as they
 //! are. Positions are written in world space (the prepared scene's are from the camera). What
 //! POV-Ray cannot express is listed at the top of the file.
@@ -68,13 +69,26 @@ fn matrix(m: &Affine3A) -> String {
     )
 }
 
-/// Which of the handout's terms the model has, as plain seed terms (other variants are noted).
+/// Which of the handout's terms the model has, as plain seed terms (other variants are noted),
+/// the highlight as POV-Ray can write it.
 struct Terms {
     ambient: bool,
     diffuse: bool,
-    specular: bool,
+    specular: Option<Highlight>,
     mirror: bool,
     refraction: bool,
+}
+
+/// The specular term's form in POV-Ray's finish.
+#[derive(Clone, Copy)]
+enum Highlight {
+    /// The handout's Phong: `phong spec·shine phong_size 1/(1 − shine)` (also what the variants
+    /// POV-Ray has no form for are written as).
+    Phong,
+    /// Blinn-Phong, `spec · shine · (N·h)^e`: POV-Ray's own half-vector `specular spec·shine`
+    /// with `roughness 1/e` (it raises `N·h` to `1/roughness`); `exponent` as the term was
+    /// given it, else `4/(1 − shine)`.
+    Blinn { exponent: Option<f32> },
 }
 
 /// Writes the scene. `texture_stem` names the image files (`<stem>-<k>.png`).
@@ -87,20 +101,28 @@ pub fn export(
     texture_stem: &str,
 ) -> Export {
     let mut notes = Vec::new();
-    let mut terms = Terms { ambient: false, diffuse: false, specular: false, mirror: false, refraction: false };
+    let mut terms = Terms { ambient: false, diffuse: false, specular: None, mirror: false, refraction: false };
     for t in &pipeline.terms {
         let seed = matches!(
             (t.name.as_str(), t.variant.as_str()),
             ("ambient", "seed")
                 | ("diffuse", "lambert")
                 | ("specular", "phong")
+                | ("specular", "blinn")
                 | ("mirror", "constant")
                 | ("refraction", "seed")
         );
         match t.name.as_str() {
             "ambient" => terms.ambient = true,
             "diffuse" => terms.diffuse = true,
-            "specular" => terms.specular = true,
+            "specular" if t.variant == "blinn" => {
+                let exponent = t.params.iter().find_map(|(k, v)| match (k.as_str(), v) {
+                    ("exponent", lancer_shading::ParamValue::Number(e)) if *e > 0.0 => Some(*e as f32),
+                    _ => None,
+                });
+                terms.specular = Some(Highlight::Blinn { exponent });
+            }
+            "specular" => terms.specular = Some(Highlight::Phong),
             "mirror" => terms.mirror = true,
             "refraction" => terms.refraction = true,
             other => notes.push(format!("term `{other}` has no POV-Ray counterpart: left out")),
@@ -197,7 +219,8 @@ pub fn export(
     let mut text = String::from(
         "// Exported by `lancer export pov` for POV-Ray 3.7 with the handout's mapping:\n\
          //   ambient = ambi, diffuse = diff, phong = spec*shine, phong_size = 1/(1-shine), reflection = spec,\n\
-         //   transmit = alpha with ambient and diffuse divided by (1 - alpha), ior = n.\n",
+         //   transmit = alpha with ambient and diffuse divided by (1 - alpha), ior = n;\n\
+         //   specular:blinn as specular = spec*shine, roughness = 1/exponent (4/(1-shine) if not given).\n",
     );
     let _ = writeln!(
         text,
@@ -379,14 +402,21 @@ fn appearance(
     let scale_by = if keep > 0.0 { 1.0 / keep } else { 1.0 };
     let ambient = if terms.ambient { m.ambi * scale_by } else { 0.0 };
     let diffuse = if terms.diffuse { m.diff * scale_by } else { 0.0 };
-    let (phong, phong_size) = if terms.specular && m.shine > 0.0 && m.shine < 1.0 {
-        (m.spec * m.shine, 1.0 / (1.0 - m.shine))
-    } else {
-        (0.0, 1.0)
+    let highlight = match terms.specular {
+        Some(Highlight::Phong) if m.shine > 0.0 && m.shine < 1.0 => {
+            format!("phong {} phong_size {}", m.spec * m.shine, 1.0 / (1.0 - m.shine))
+        }
+        Some(Highlight::Blinn { exponent }) => {
+            match exponent.or_else(|| lancer_shading::terms::specular::blinn_exponent(m.shine)) {
+                Some(e) if m.spec * m.shine > 0.0 => format!("specular {} roughness {}", m.spec * m.shine, 1.0 / e),
+                _ => "phong 0 phong_size 1".to_owned(),
+            }
+        }
+        _ => "phong 0 phong_size 1".to_owned(),
     };
     let reflection = if terms.mirror { m.spec } else { 0.0 };
     let mut s = format!(
-        "  {pigment}\n  finish {{ ambient {ambient} diffuse {diffuse} phong {phong} phong_size {phong_size} reflection {reflection} }}\n"
+        "  {pigment}\n  finish {{ ambient {ambient} diffuse {diffuse} {highlight} reflection {reflection} }}\n"
     );
     if alpha > 0.0 {
         let _ = writeln!(s, "  interior {{ ior {} }}", m.n);

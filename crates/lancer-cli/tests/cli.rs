@@ -810,6 +810,38 @@ fn a_missing_duplicated_mismatched_or_broken_part_is_an_error_and_nothing_is_wri
 }
 
 #[test]
+fn export_pov_writes_blinn_as_povrays_half_vector_specular() {
+    let dir = tempfile::tempdir().unwrap();
+    // The mirror ball (spec 0.8, shine 0.9875): specular 0.79 and roughness 1/e, e = 4/(1 -
+    // shine) = 320 unless the term gives its exponent (f32 figures: to 1e-5 of the value).
+    let near = |x: f64, want: f64| (x - want).abs() <= 1e-5 * want;
+    for (terms, e) in [("specular:blinn", 320.0), ("specular:blinn:exponent=64", 64.0)] {
+        let o = lancer(dir.path(), &["export", "pov", &scene("bench/anchor.toml"), "--terms", terms, "-o", "b.pov"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let pov = std::fs::read_to_string(dir.path().join("b.pov")).unwrap();
+        let number_after = |line: &str, word: &str| -> f64 {
+            let rest = line.split(&format!(" {word} ")).nth(1).unwrap_or_else(|| panic!("{terms}: no {word}: {line}"));
+            rest.split_whitespace().next().unwrap().parse().unwrap()
+        };
+        let ball = pov
+            .lines()
+            .filter(|l| l.contains("finish {"))
+            .find(|l| l.contains(" specular ") && near(number_after(l, "specular"), 0.79))
+            .unwrap_or_else(|| panic!("{terms}: no specular 0.79: {pov}"));
+        assert!(near(number_after(ball, "roughness"), 1.0 / e), "{terms}: {ball}");
+        assert!(!pov.contains(" phong 0.") && !pov.contains("`specular:blinn`"), "{terms}: written as Phong: {pov}");
+    }
+    // Normalised Blinn has no POV-Ray form (its N·w factor): the handout's Phong, said so.
+    let o = lancer(
+        dir.path(),
+        &["export", "pov", &scene("bench/anchor.toml"), "--terms", "specular:blinn-normalized", "-o", "n.pov"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pov = std::fs::read_to_string(dir.path().join("n.pov")).unwrap();
+    assert!(pov.contains("`specular:blinn-normalized` is written as the handout's `specular`"), "{pov}");
+}
+
+#[test]
 fn export_pov_writes_the_handouts_mapping_and_lists_what_povray_cannot_do() {
     let dir = tempfile::tempdir().unwrap();
     let o = lancer(dir.path(), &["export", "pov", &scene("bench/anchor.toml"), "-o", "anchor.pov"]);
