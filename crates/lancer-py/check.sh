@@ -3,8 +3,8 @@
 # maturin, sharing the repository's target/), installed into a fresh venv, the README's Python
 # section run there, then the package's tests (the API against the CLI's bits, terms written in
 # Python, the example notebook executed by nbclient, the dask sweep on a LocalCluster). Python and
-# venv from Debian where missing; everything else from PyPI, at the versions of
-# check-constraints.txt. Run from anywhere: bash crates/lancer-py/check.sh
+# venv from Debian where missing; everything else from PyPI (the packages it names at the
+# versions of check-constraints.txt). Run from anywhere: bash crates/lancer-py/check.sh
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 export CARGO_TERM_COLOR=never
@@ -19,7 +19,7 @@ cargo fmt --manifest-path crates/lancer-py/Cargo.toml --check
 CARGO_TARGET_DIR="$PWD/target" cargo clippy --manifest-path crates/lancer-py/Cargo.toml --locked -- -D warnings
 cargo build --release --locked -p lancer-cli
 step "wheel"
-# Every package PyPI gives at the version of check-constraints.txt.
+# The packages named here (and NumPy) at the versions of check-constraints.txt.
 constraints="$PWD/crates/lancer-py/check-constraints.txt"
 python3 -m venv "$out/build-venv"
 "$out/build-venv/bin/pip" install -q --disable-pip-version-check -c "$constraints" maturin

@@ -129,7 +129,7 @@ pub fn export(
         }
         if !seed && ["ambient", "diffuse", "specular", "mirror", "refraction"].contains(&t.name.as_str()) {
             notes.push(format!(
-                "`{}:{}` is written as the handout's `{}` (POV-Ray has only that form)",
+                "`{}:{}` is written as the handout's `{}` (POV-Ray has no form for it)",
                 t.name, t.variant, t.name
             ));
         }
@@ -408,7 +408,11 @@ fn appearance(
         }
         Some(Highlight::Blinn { exponent }) => {
             match exponent.or_else(|| lancer_shading::terms::specular::blinn_exponent(m.shine)) {
-                Some(e) if m.spec * m.shine > 0.0 => format!("specular {} roughness {}", m.spec * m.shine, 1.0 / e),
+                // In f64: an exponent below f32's smallest normal still has a finite inverse
+                // (POV-Ray raises to 1/roughness, so a huge roughness is Lancer's `c^0`).
+                Some(e) if m.spec * m.shine > 0.0 => {
+                    format!("specular {} roughness {}", m.spec * m.shine, 1.0 / f64::from(e))
+                }
                 _ => "phong 0 phong_size 1".to_owned(),
             }
         }
