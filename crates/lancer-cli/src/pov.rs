@@ -2,10 +2,10 @@
 //! (`ambient = ambi`, `diffuse = diff`, `phong = spec·shine`, `phong_size = 1/(1−shine)`,
 //! `reflection = spec`, `transmit = alpha` with ambient and diffuse divided by `1 − alpha`,
 //! `ior = n`; `specular:blinn` as POV-Ray's half-vector `specular = spec·shine` with
-//! `roughness = 1/e`). Objects keep their canonical shapes and get their placement as a `matrix`; the
-//! camera's `right` vector is negated so POV-Ray sees Lancer's right-handed coordinates as they
-//! are. Positions are written in world space (the prepared scene's are from the camera). What
-//! POV-Ray cannot express is listed at the top of the file.
+//! `roughness = 1/e`). Objects keep their canonical shapes and get their placement as a
+//! `matrix`; the camera's `right` vector is negated so POV-Ray sees Lancer's right-handed
+//! coordinates as they are. Positions are written in world space (the prepared scene's are from
+//! the camera). What POV-Ray cannot express is listed at the top of the file.
 
 use std::fmt::Write;
 
