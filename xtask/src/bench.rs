@@ -208,11 +208,8 @@ pub fn run(args: &[String]) -> Result<()> {
         if only != "web" {
             bail!("--only takes `web` (the browser build against native renders of the anchor)");
         }
-        let anchor = root().join("scenes/bench/anchor.toml");
-        let one = median_run(&lancer, &anchor, 1, runs, &[])?.secs;
-        let two = median_run(&lancer, &anchor, 2, runs, &[])?.secs;
         let (mut json, mut targets) = (serde_json::Map::new(), Vec::new());
-        web_rows(runs, one, two, &mut json, &mut targets);
+        web_rows(&lancer, runs, &mut json, &mut targets);
         print_targets(&targets);
         let dir = root().join("target/bench");
         std::fs::create_dir_all(&dir)?;
@@ -547,7 +544,7 @@ pub fn run(args: &[String]) -> Result<()> {
     }
     json.insert("meshes_vs_povray".into(), mesh_pov_rows.into());
 
-    web_rows(runs, one.secs, two.secs, &mut json, &mut targets);
+    web_rows(&lancer, runs, &mut json, &mut targets);
 
     print_targets(&targets);
     let rows: Vec<serde_json::Value> = targets
@@ -566,28 +563,28 @@ pub fn run(args: &[String]) -> Result<()> {
     Ok(())
 }
 
-/// The browser build (target/web) in headless Chromium against the native anchor renders
-/// (`one` and `two`: the native render times on 1 and 2 threads): rows, JSON under `wasm`, and
-/// the targets; says why when it cannot be measured.
+/// The browser build (target/web) in headless Chromium against native renders of the anchor by
+/// `lancer` (each browser render beside a native one): rows, JSON under `wasm`, and the targets;
+/// says why when it cannot be measured.
 fn web_rows(
+    lancer: &Path,
     runs: usize,
-    one: f64,
-    two: f64,
     json: &mut serde_json::Map<String, serde_json::Value>,
     targets: &mut Vec<Target>,
 ) {
-    println!("\nIn the browser: target/web (cargo xtask web) in headless Chromium, anchor 1280x720, median of {runs}");
-    match crate::web_check::measure(runs) {
+    println!(
+        "\nIn the browser: target/web (cargo xtask web) in headless Chromium, anchor 1280x720, {runs} pairs of \
+         renders (native, then the browser), medians"
+    );
+    let anchor = root().join("scenes/bench/anchor.toml");
+    let mut native = |threads: u32| lancer_run(lancer, &anchor, threads, &[]).map(|r| r.secs);
+    match crate::web_check::measure(runs, &mut native) {
         Ok(w) => {
-            let native = [one, two];
             let mut rows = Vec::new();
-            println!("{:<8} {:>10} {:>11} {:>16}", "workers", "wasm (s)", "native (s)", "wasm / native");
-            for (k, &(workers, secs)) in w.anchor.iter().enumerate() {
-                let ratio = secs / native[k];
-                println!("{workers:<8} {secs:>10.3} {:>11.3} {ratio:>15.2}x", native[k]);
-                rows.push(
-                    serde_json::json!({ "workers": workers, "wasm_s": secs, "native_s": native[k], "ratio": ratio }),
-                );
+            println!("{:<8} {:>10} {:>11} {:>22}", "workers", "wasm (s)", "native (s)", "wasm / native (pairs)");
+            for a in &w.anchor {
+                println!("{:<8} {:>10.3} {:>11.3} {:>21.2}x", a.workers, a.wasm, a.native, a.ratio);
+                rows.push(serde_json::json!({ "workers": a.workers, "wasm_s": a.wasm, "native_s": a.native, "ratio": a.ratio }));
             }
             let (coarse, full) = w.latency;
             println!(
@@ -598,10 +595,10 @@ fn web_rows(
                 "wasm".into(),
                 serde_json::json!({ "anchor": rows, "latency_coarse_ms": coarse, "latency_full_ms": full, "simd": w.simd }),
             );
-            if let Some(&(_, secs)) = w.anchor.first() {
+            if let Some(a) = w.anchor.first() {
                 targets.push(Target {
                     what: "anchor in the browser, 1 worker / native 1 thread",
-                    measured: secs / one,
+                    measured: a.ratio,
                     bound: 2.0,
                     at_most: true,
                 });

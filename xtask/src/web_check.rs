@@ -502,16 +502,29 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
     Ok(())
 }
 
-/// What `cargo xtask bench` measures of the browser build: the anchor's full render at 1 and
-/// `threads` workers (median of `runs`, ms), and the latency of a slider move at 640x360 on 2
-/// workers (median ms to the coarse and to the full image, of `runs` moves).
+/// What `cargo xtask bench` measures of the browser build: the anchor's full render at 1 and 2
+/// workers, each render beside a native one on as many threads, and the latency of a slider
+/// move at 640x360 on 2 workers (median ms to the coarse and to the full image, of `runs` moves).
 pub struct WebTimes {
-    /// Anchor render times, one per worker count (1, then 2), in seconds.
-    pub anchor: Vec<(u32, f64)>,
+    /// One row per worker count (1, then 2).
+    pub anchor: Vec<AnchorTimes>,
     /// Median slider-to-coarse and slider-to-full times, ms.
     pub latency: (f64, f64),
     /// Whether the SIMD module ran.
     pub simd: bool,
+}
+
+/// The anchor in the browser on `workers` workers against native renders on as many threads,
+/// taken in pairs (a native render, then the browser's) so that a machine that speeds up or
+/// slows down during the bench moves both sides of a pair alike.
+pub struct AnchorTimes {
+    pub workers: u32,
+    /// Median browser render time, s.
+    pub wasm: f64,
+    /// Median native render time, s.
+    pub native: f64,
+    /// Median of the pairs' ratios (browser / native).
+    pub ratio: f64,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -519,8 +532,9 @@ fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() { f64::NAN } else { v[v.len() / 2] }
 }
 
-/// Measures the browser build (see [`WebTimes`]); an error says what is missing.
-pub fn measure(runs: usize) -> Result<WebTimes> {
+/// Measures the browser build (see [`WebTimes`]): `native(threads)` renders the anchor natively
+/// and gives its render time in seconds. An error says what is missing.
+pub fn measure(runs: usize, native: &mut dyn FnMut(u32) -> Result<f64>) -> Result<WebTimes> {
     let web = root().join("target/web");
     if !web.join("index.html").is_file() {
         bail!("no browser build in target/web (run `cargo xtask web`)");
@@ -541,11 +555,22 @@ pub fn measure(runs: usize) -> Result<WebTimes> {
                 Duration::from_secs(120),
             )?;
             simd = d.js("return window.studio.engineInfo().simd", json!([]))? == json!(true);
-            d.js("return window.studio.bench(arguments[0])", json!([runs.max(1)]))?;
-            let times =
-                d.until_within("the anchor's renders", "return window.studio.benchTimes", Duration::from_secs(600))?;
-            let times: Vec<f64> = times.as_array().into_iter().flatten().filter_map(Value::as_f64).collect();
-            anchor.push((workers, median(times) / 1000.0));
+            // One render of each first, not counted: the browser compiles the module's hot code
+            // in tiers, and the native side's files come into the page cache.
+            let (mut wasm, mut own) = (Vec::new(), Vec::new());
+            for k in 0..=runs.max(1) {
+                let n = native(workers)?;
+                d.js("return window.studio.bench(1)", json!([]))?;
+                let times =
+                    d.until_within("the anchor's render", "return window.studio.benchTimes", Duration::from_secs(120))?;
+                let t = times.as_array().and_then(|a| a.first()).and_then(Value::as_f64).unwrap_or(f64::NAN) / 1000.0;
+                if k > 0 {
+                    wasm.push(t);
+                    own.push(n);
+                }
+            }
+            let ratio = median(wasm.iter().zip(&own).map(|(w, n)| w / n).collect());
+            anchor.push(AnchorTimes { workers, wasm: median(wasm), native: median(own), ratio });
         }
         d.call("POST", "/url", json!({ "url": format!("http://127.0.0.1:{port}/?workers=2&scene=showcase.toml") }))?;
         d.until("the showcase", "const f = window.studio && window.studio.frame(); return f && !f.coarse || null")?;

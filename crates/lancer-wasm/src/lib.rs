@@ -81,7 +81,8 @@ pub struct Engine {
 #[wasm_bindgen]
 pub struct Rendered {
     header: String,
-    floats: Vec<f32>,
+    /// Each layer's pixels, taken one by one by [`Rendered::layer`].
+    layers: Vec<Vec<glam::Vec3>>,
 }
 
 #[wasm_bindgen]
@@ -93,10 +94,12 @@ impl Rendered {
         self.header.clone()
     }
 
-    /// The floats: every layer's rows one layer after the other, each `rows` x `width` linear
-    /// RGB triples. Taken once.
-    pub fn floats(&mut self) -> Vec<f32> {
-        std::mem::take(&mut self.floats)
+    /// Layer `index`'s floats (in the order of the header's `layers`): `rows` x `width` linear
+    /// RGB triples. Taken once: the pixels go to JavaScript with one copy, none made here.
+    pub fn layer(&mut self, index: usize) -> Result<Vec<f32>, String> {
+        let pixels = self.layers.get_mut(index).ok_or_else(|| format!("there is no layer {index}"))?;
+        // Vec3 is three f32 (size 12, align 4): its buffer is reinterpreted, never copied.
+        bytemuck::allocation::try_cast_vec(std::mem::take(pixels)).map_err(|(e, _)| format!("layer {index}: {e:?}"))
     }
 }
 
@@ -177,11 +180,7 @@ impl Engine {
             "rays": frame.stats.total(),
         })
         .to_string();
-        let mut floats = Vec::with_capacity(frame.layers.len() * frame.beauty.len() * 3);
-        for layer in &frame.layers {
-            floats.extend_from_slice(bytemuck::cast_slice(&layer.pixels));
-        }
-        Ok(Rendered { header, floats })
+        Ok(Rendered { header, layers: frame.layers.into_iter().map(|l| l.pixels).collect() })
     }
 
     /// Pixel `(x, y)` of the full image of the state explained, as `lancer explain --json`.

@@ -134,10 +134,12 @@ export async function createLocalEngine(on, options = {}) {
     }
     if (!p.layers) p.layers = h.layers.map((name) => ({ name, data: new Float32Array(p.width * p.height * 3) }));
     const span = h.rows * h.width * 3;
-    h.layers.forEach((_, l) => {
-      const from = m.floats.subarray(l * span, (l + 1) * span);
-      p.layers[l].data.set(from, h.bands[0] * TILE * h.width * 3);
-    });
+    if (m.layers.length !== h.layers.length || m.layers.some((a) => a.length !== span)) {
+      on.message({ type: "error", message: `a render worker sent layers of the wrong size for band ${m.job.band}` });
+      job = null;
+      return;
+    }
+    h.layers.forEach((_, l) => p.layers[l].data.set(m.layers[l], h.bands[0] * TILE * h.width * 3));
     p.got += 1;
     p.rays += h.rays;
     const done = job.phases.reduce((n, q) => n + q.got, 0), total = job.phases.reduce((n, q) => n + q.bands, 0);

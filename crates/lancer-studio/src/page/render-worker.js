@@ -24,9 +24,10 @@ self.onmessage = async (e) => {
       const start = performance.now();
       const r = engine.render(m.state, m.coarse, m.part, m.parts);
       const header = JSON.parse(r.header());
-      const floats = r.floats();
+      // Each layer's floats, copied once out of the instance's memory and handed over whole.
+      const layers = header.layers.map((_, l) => r.layer(l));
       r.free();
-      self.postMessage({ type: "rendered", job: m.job, header, floats, ms: performance.now() - start }, [floats.buffer]);
+      self.postMessage({ type: "rendered", job: m.job, header, layers, ms: performance.now() - start }, layers.map((a) => a.buffer));
     }
   } catch (err) {
     // The engine's own errors are strings; anything else (a trap: a panic, memory exhausted, a
