@@ -19,6 +19,8 @@ struct Run {
     load: f64,
     peak_mb: f64,
     wall: f64,
+    /// Camera, secondary and shadow rays.
+    kinds: [u64; 3],
 }
 
 /// Runs `lancer render SCENE --threads N -o tmp.png EXTRA...` and reads its summary line
@@ -47,8 +49,17 @@ fn lancer_run_to(lancer: &Path, scene: &Path, threads: u32, extra: &[&str], imag
     let after =
         |key: &str, until: &str| -> Option<f64> { text.split(key).nth(1)?.split(until).next()?.trim().parse().ok() };
     let peak_mb = after("peak memory ", " MB").unwrap_or(f64::NAN);
+    // "4.37 M rays (921600 camera, 1314006 secondary, 2137739 shadow)"
+    let counts = text.split(" M rays (").nth(1).and_then(|t| t.split(')').next()).unwrap_or("");
+    let kind = |name: &str| -> Option<u64> {
+        counts.split(", ").find_map(|c| c.strip_suffix(name).and_then(|n| n.trim().parse().ok()))
+    };
+    let kinds = [kind("camera"), kind("secondary"), kind("shadow")];
     match (after(" in ", " s"), after(": ", " M rays"), after("scene loaded in ", " s")) {
-        (Some(secs), Some(rays), Some(load)) => Ok(Run { secs, rays: rays * 1e6, load, peak_mb, wall }),
+        (Some(secs), Some(rays), Some(load)) => {
+            let kinds = kinds.map(|k| k.unwrap_or(0));
+            Ok(Run { secs, rays: rays * 1e6, load, peak_mb, wall, kinds })
+        }
         _ => bail!("could not read lancer's summary line: {text}"),
     }
 }
@@ -142,6 +153,116 @@ fn heightfield_obj(triangles: usize) -> String {
     s
 }
 
+/// Writes the height field of about `n` triangles (`field-N.obj`) and its scene (`field-N.toml`:
+/// the camera and light of [`crate::embree::FIELD`], a mirror-like material, hard shadows) into
+/// `dir`: their paths.
+fn field_files(dir: &Path, n: usize) -> Result<(std::path::PathBuf, std::path::PathBuf)> {
+    let obj = dir.join(format!("field-{n}.obj"));
+    std::fs::write(&obj, heightfield_obj(n))?;
+    let path = dir.join(format!("field-{n}.toml"));
+    let f = &crate::embree::FIELD;
+    let v = |p: [f64; 3]| format!("[{}, {}, {}]", p[0], p[1], p[2]);
+    std::fs::write(
+        &path,
+        format!(
+            "[image]\nwidth = {}\nheight = {}\n[camera]\nfrom = {}\nto = {}\nfov = {}\n\
+             [model]\nmax_depth = {}\nshadows = \"hard\"\nterms = [\"ambient\", \"diffuse\", \"specular\", \"mirror\"]\n\
+             [[lights]]\nat = {}\n[[objects]]\nshape = \"mesh\"\npath = \"field-{n}.obj\"\n\
+             material = {{ color = [0.4, 0.7, 0.5], diff = 0.8, spec = 0.3, shine = 0.9 }}\n",
+            f.width,
+            f.height,
+            v(f.from),
+            v(f.to),
+            f.fov,
+            f.max_depth,
+            v(f.light)
+        ),
+    )?;
+    Ok((obj, path))
+}
+
+/// The 1M-triangle height field on 1 thread against the same rays priced at Embree 3's
+/// single-ray rates (the harness of [`crate::embree`]), taken in pairs (Lancer, then Embree):
+/// rows, JSON under `embree`, and the target; says why when Embree is not there.
+fn embree_rows(
+    lancer: &Path,
+    dir: &Path,
+    runs: usize,
+    json: &mut serde_json::Map<String, serde_json::Value>,
+    targets: &mut Vec<Target>,
+) -> Result<()> {
+    println!(
+        "\nMeshes against Embree 3: the 1M-triangle height field, {}x{}, 1 thread, {runs} pairs of runs (Lancer, then Embree), medians",
+        crate::embree::FIELD.width,
+        crate::embree::FIELD.height
+    );
+    let harness = match crate::embree::build(&root().join("target/bench")) {
+        Ok(h) => h,
+        Err(e) => {
+            println!("  not measured: {e:#}");
+            json.insert("embree".into(), serde_json::json!({ "not_measured": format!("{e:#}") }));
+            return Ok(());
+        }
+    };
+    let (obj, scene) = field_files(dir, 1_000_000)?;
+    let (mut lancer_runs, mut priced, mut embree_frames, mut ratios, mut builds) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..runs.max(1) {
+        let r = lancer_run(lancer, &scene, 1, &[])?;
+        let p = crate::embree::run(&harness, &obj, &crate::embree::FIELD)?;
+        // Lancer's own rays (camera, secondary, shadow) at Embree's rate for each kind.
+        let counts = r.kinds;
+        let rates = p.rates();
+        let frame: f64 = counts.iter().zip(rates).map(|(n, rate)| *n as f64 * rate).sum();
+        ratios.push(r.secs / frame);
+        embree_frames.push(p.kinds.iter().map(|k| k.1).sum::<f64>());
+        priced.push(frame);
+        builds.push((r.load, p.build));
+        lancer_runs.push((r, counts, p));
+    }
+    let (lancer_s, priced_s, ratio) =
+        (median(lancer_runs.iter().map(|x| x.0.secs).collect()), median(priced.clone()), median(ratios.clone()));
+    let (r, counts, p) = &lancer_runs[0];
+    println!("{:<9} {:>12} {:>12} {:>12} {:>12}", "rays", "lancer", "embree", "embree ns", "priced (s)");
+    for (k, what) in ["camera", "mirror", "shadow"].iter().enumerate() {
+        let rate = p.rates()[k];
+        println!(
+            "{what:<9} {:>12} {:>12} {:>12.1} {:>12.4}",
+            counts[k],
+            p.kinds[k].0,
+            rate * 1e9,
+            counts[k] as f64 * rate
+        );
+    }
+    println!(
+        "Lancer's frame {lancer_s:.3} s (shading included), the Embree-priced frame {priced_s:.3} s (rays only): {ratio:.2}x \
+         (median of the pairs); Embree's own frame {:.3} s",
+        median(embree_frames)
+    );
+    println!(
+        "loading: Lancer {:.3} s (OBJ read, BVH built), Embree's BVH build alone {:.3} s (1 thread, {} triangles); Lancer's peak {:.1} MB",
+        median(builds.iter().map(|b| b.0).collect()),
+        median(builds.iter().map(|b| b.1).collect()),
+        p.triangles,
+        r.peak_mb
+    );
+    json.insert(
+        "embree".into(),
+        serde_json::json!({
+            "lancer_s": lancer_s, "priced_s": priced_s, "ratio": ratio,
+            "lancer_rays": counts, "embree_rays": p.kinds.map(|k| k.0),
+            "embree_ns_per_ray": p.rates().map(|r| r * 1e9), "embree_build_s": p.build,
+        }),
+    );
+    targets.push(Target {
+        what: "1M triangles, 1 thread: Lancer's frame / the Embree-priced frame",
+        measured: ratio,
+        bound: 1.5,
+        at_most: true,
+    });
+    Ok(())
+}
+
 /// One target of the benchmark: what is measured, the bound, and whether it is met.
 struct Target {
     what: &'static str,
@@ -205,15 +326,25 @@ pub fn run(args: &[String]) -> Result<()> {
     let only = options.iter().find(|(k, _)| k == "only").map(|(_, v)| v.as_str());
     let lancer = build_renderer()?;
     if let Some(only) = only {
-        if only != "web" {
-            bail!("--only takes `web` (the browser build against native renders of the anchor)");
-        }
         let (mut json, mut targets) = (serde_json::Map::new(), Vec::new());
-        web_rows(&lancer, runs, &mut json, &mut targets);
+        match only {
+            "web" => web_rows(&lancer, runs, &mut json, &mut targets),
+            "embree" => {
+                let dir = std::env::temp_dir().join("lancer-bench-scenes");
+                std::fs::create_dir_all(&dir)?;
+                embree_rows(&lancer, &dir, runs, &mut json, &mut targets)?;
+            }
+            _ => bail!(
+                "--only takes `web` (the browser build against native renders of the anchor) or `embree` (the \
+                 1M-triangle field against Embree 3)"
+            ),
+        }
         print_targets(&targets);
         let dir = root().join("target/bench");
         std::fs::create_dir_all(&dir)?;
-        std::fs::write(dir.join("bench-web.json"), serde_json::to_string_pretty(&serde_json::Value::Object(json))?)?;
+        let file = dir.join(format!("bench-{only}.json"));
+        std::fs::write(&file, serde_json::to_string_pretty(&serde_json::Value::Object(json))?)?;
+        println!("\n(written as JSON to {})", file.display());
         return Ok(());
     }
     let busy_before = check_quiet("before");
@@ -455,18 +586,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let mut mesh_rows = Vec::new();
     let mut meshes = Vec::new();
     for n in [10_000usize, 100_000, 1_000_000] {
-        let obj = dir.join(format!("field-{n}.obj"));
-        std::fs::write(&obj, heightfield_obj(n))?;
-        let path = dir.join(format!("field-{n}.toml"));
-        std::fs::write(
-            &path,
-            format!(
-                "[image]\nwidth = 640\nheight = 360\n[camera]\nfrom = [0, 7, -13]\nto = [0, 0, 1]\nfov = 50\n\
-                 [model]\nmax_depth = 2\nshadows = \"hard\"\nterms = [\"ambient\", \"diffuse\", \"specular\", \"mirror\"]\n\
-                 [[lights]]\nat = [-6, 12, -8]\n[[objects]]\nshape = \"mesh\"\npath = \"field-{n}.obj\"\n\
-                 material = {{ color = [0.4, 0.7, 0.5], diff = 0.8, spec = 0.3, shine = 0.9 }}\n"
-            ),
-        )?;
+        let (_, path) = field_files(&dir, n)?;
         let r = median_run(&lancer, &path, 2, runs, &[])?;
         let ns = 2.0 * r.secs * 1e9 / r.rays;
         println!("{n:>10} {:>12.3} {:>12.2} {ns:>14.1} {:>10.3} {:>11.1}", r.secs, r.rays / 1e6, r.load, r.peak_mb);
@@ -494,6 +614,8 @@ pub fn run(args: &[String]) -> Result<()> {
         bound: 120.0,
         at_most: true,
     });
+
+    embree_rows(&lancer, &dir, runs, &mut json, &mut targets)?;
 
     // Mesh scenes against POV-Ray: each exported by `lancer export pov` (so both render the same
     // scene) and traced by both at 1280x720 on two threads.

@@ -4,6 +4,7 @@
 mod bench;
 mod compare;
 mod course;
+mod embree;
 mod fuzz;
 mod gallery;
 mod portable;
