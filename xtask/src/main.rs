@@ -21,9 +21,11 @@ use anyhow::{Context, Result, bail};
 const USAGE: &str = "usage: cargo xtask <task> [options]
 
 tasks:
-  bench [--runs N] [--only web]
+  bench [--runs N] [--only web|embree]
             Lancer against POV-Ray 3.7 (when installed) on scenes/bench/anchor, 1 and 2 threads;
-            and render cost against the number of objects
+            render cost against the number of objects and triangles; the 1M-triangle field
+            against Embree 3 (when libembree-dev is installed); the browser build in Chromium
+            (when target/web is built); the targets, met or not
   compare [--width W] [--min-psnr DB] SCENE... [-- LANCER FLAGS]
             export each scene for POV-Ray 3.7 (with the flags, e.g. --terms), render it with both, and write both images, their
             difference and a page to target/compare/<scene>/; prints PSNR and the share of

@@ -563,7 +563,12 @@ pub fn measure(runs: usize, native: &mut dyn FnMut(u32) -> Result<f64>) -> Resul
                 d.js("return window.studio.bench(1)", json!([]))?;
                 let times =
                     d.until_within("the anchor's render", "return window.studio.benchTimes", Duration::from_secs(120))?;
-                let t = times.as_array().and_then(|a| a.first()).and_then(Value::as_f64).unwrap_or(f64::NAN) / 1000.0;
+                let t = times
+                    .as_array()
+                    .and_then(|a| a.first())
+                    .and_then(Value::as_f64)
+                    .with_context(|| format!("the page gave no render time ({times})"))?
+                    / 1000.0;
                 if k > 0 {
                     wasm.push(t);
                     own.push(n);

@@ -94,15 +94,23 @@ function message(m) {
   } else if (m.type === "progress") {
     // At most ten updates a second: each one repaints the page, and one a band (45 for the
     // benchmark scene) made a 2-worker render in headless Chromium on 2 cores 40 % slower.
-    const now = performance.now();
-    if (now - progressShown >= 100 || m.done === m.total) {
-      progressShown = now;
-      $("progress").value = m.done / m.total;
-    }
+    // An update held back is shown when its tenth of a second is over.
+    progressValue = m.done / m.total;
+    const wait = 100 - (performance.now() - progressShown);
+    if (wait <= 0 || m.done === m.total) showProgress();
+    else if (!progressTimer) progressTimer = setTimeout(showProgress, wait);
   }
 }
 
 let progressShown = 0; // when the progress bar was last moved (performance.now(), ms)
+let progressValue = 0; // the latest progress reported
+let progressTimer = null; // the update held back, if any
+function showProgress() {
+  clearTimeout(progressTimer);
+  progressTimer = null;
+  progressShown = performance.now();
+  $("progress").value = progressValue;
+}
 let incoming = null; // the frame being received: { header, floats, got }
 
 function receiveFrame(buffer) {

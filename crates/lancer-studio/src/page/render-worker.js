@@ -23,10 +23,14 @@ self.onmessage = async (e) => {
       if (m.key !== loaded) throw new Error("the scene of this render is not loaded");
       const start = performance.now();
       const r = engine.render(m.state, m.coarse, m.part, m.parts);
-      const header = JSON.parse(r.header());
-      // Each layer's floats, copied once out of the instance's memory and handed over whole.
-      const layers = header.layers.map((_, l) => r.layer(l));
-      r.free();
+      let header, layers;
+      try {
+        header = JSON.parse(r.header());
+        // Each layer's floats, copied once out of the instance's memory and handed over whole.
+        layers = header.layers.map((_, l) => r.layer(l));
+      } finally {
+        r.free();
+      }
       self.postMessage({ type: "rendered", job: m.job, header, layers, ms: performance.now() - start }, layers.map((a) => a.buffer));
     }
   } catch (err) {
