@@ -64,7 +64,7 @@ fn run(d: &Driver, url: &str, scene: &Path, original: &str, screenshot: &Path) -
         d.until("the first full image", &FULL_AFTER.replace("arguments[0]", "0"))?.as_i64().unwrap_or(0);
     let hash = |name: &str| d.js("return window.studio.hash(arguments[0])", json!([name]));
     let hashes = |names: &[&str]| -> Result<Vec<Value>> { names.iter().map(|n| hash(n)).collect() };
-    let mut edit = |what: &str, selector: &str, value: Value| -> Result<(f64, f64)> {
+    let mut edit = |what: &str, selector: &str, value: Value| -> Result<(f64, f64, f64)> {
         let ok = d.js(SET, json!([selector, value]))?;
         if ok != json!(true) {
             bail!("{what}: {ok}");
@@ -77,12 +77,13 @@ fn run(d: &Driver, url: &str, scene: &Path, original: &str, screenshot: &Path) -
              return [c ? c.at - s.editAt : -1, f ? f.at - s.editAt : -1];",
             json!([]),
         )?;
-        Ok((t[0].as_f64().unwrap_or(-1.0), t[1].as_f64().unwrap_or(-1.0)))
+        let render = d.js("return window.studio.frame().seconds", json!([]))?.as_f64().unwrap_or(f64::NAN);
+        Ok((t[0].as_f64().unwrap_or(-1.0), t[1].as_f64().unwrap_or(-1.0), render * 1000.0))
     };
 
     // 1. A material's diff: the diffuse image changes, the ambient one not at all.
     let before = hashes(&["ambient", "diffuse"])?;
-    let (coarse, full) = edit(
+    let (coarse, full, render) = edit(
         "the image after moving floor's diff",
         "fieldset[data-name='floor'] input[data-param='diff']",
         json!("0.3"),
@@ -98,7 +99,8 @@ fn run(d: &Driver, url: &str, scene: &Path, original: &str, screenshot: &Path) -
         );
     }
     println!(
-        "diff slider: diffuse image changed, ambient bit-identical; coarse image after {coarse:.0} ms, full after {full:.0} ms"
+        "diff slider: diffuse image changed, ambient bit-identical; coarse image after {coarse:.0} ms, full after {full:.0} ms \
+         (its render on the server {render:.0} ms)"
     );
 
     // 2. Switching a term off takes its image out of the sum.

@@ -168,6 +168,10 @@ pub(crate) struct Shared {
     pub allow_save: bool,
     /// Whether each page's edits are its own (`--read-only`); Save is off then.
     pub read_only: bool,
+    /// The render's scratch buffers, kept from one render to the next (renders are one at a
+    /// time, on the render thread): a slider's renders do not grow them and fault their pages
+    /// in afresh each time.
+    scratch: lancer_shading::Scratches,
 }
 
 /// A mutex's guard even if another thread panicked holding it: the data behind these locks is
@@ -310,6 +314,7 @@ pub(crate) fn start(
         events,
         allow_save,
         read_only,
+        scratch: Default::default(),
     });
     let worker = shared.clone();
     std::thread::Builder::new().name("render".into()).spawn(move || render_loop(&worker))?;
@@ -390,7 +395,7 @@ fn render(shared: &Shared, job: &Job, viewer: &Viewer, cancel: &AtomicBool) -> b
             layers: true,
             reference: false,
             compact: false,
-            scratch: None,
+            scratch: Some(&shared.scratch),
         },
     );
     if cancel.load(Ordering::SeqCst) {

@@ -144,7 +144,7 @@ function showFrame(f) {
 // fingerprint of each layer.
 const studio = window.studio = {
   arrivals: [],
-  frame: () => frame && { width: frame.width, height: frame.height, coarse: frame.coarse, generation: frame.generation, key: frame.key, layers: frame.layers.map((l) => l.name) },
+  frame: () => frame && { width: frame.width, height: frame.height, coarse: frame.coarse, generation: frame.generation, key: frame.key, seconds: frame.seconds, layers: frame.layers.map((l) => l.name) },
   hash(name) {
     const data = frame && layerData(name);
     if (!data) return null;
