@@ -71,24 +71,24 @@ fn matrix(m: &Affine3A) -> String {
 
 /// Which of the handout's terms the model has, as plain seed terms (other variants are noted),
 /// the highlight as POV-Ray can write it.
-struct Terms {
+struct Terms<'a> {
     ambient: bool,
     diffuse: bool,
-    specular: Option<Highlight>,
+    specular: Option<Highlight<'a>>,
     mirror: bool,
     refraction: bool,
 }
 
 /// The specular term's form in POV-Ray's finish.
 #[derive(Clone, Copy)]
-enum Highlight {
+enum Highlight<'a> {
     /// The handout's Phong: `phong spec·shine phong_size 1/(1 − shine)` (also what the variants
     /// POV-Ray has no form for are written as).
     Phong,
     /// Blinn-Phong, `spec · shine · (N·h)^e`: POV-Ray's own half-vector `specular spec·shine`
-    /// with `roughness 1/e` (it raises `N·h` to `1/roughness`); `exponent` as the term was
-    /// given it, else `4/(1 − shine)`.
-    Blinn { exponent: Option<f32> },
+    /// with `roughness 1/e` (it raises `N·h` to `1/roughness`), `e` the exponent the term says
+    /// it uses for the material ([`lancer_shading::Term::highlight_exponent`]).
+    Blinn(&'a dyn lancer_shading::Term),
 }
 
 /// Writes the scene. `texture_stem` names the image files (`<stem>-<k>.png`).
@@ -115,13 +115,7 @@ pub fn export(
         match t.name.as_str() {
             "ambient" => terms.ambient = true,
             "diffuse" => terms.diffuse = true,
-            "specular" if t.variant == "blinn" => {
-                let exponent = t.params.iter().find_map(|(k, v)| match (k.as_str(), v) {
-                    ("exponent", lancer_shading::ParamValue::Number(e)) if *e > 0.0 => Some(*e as f32),
-                    _ => None,
-                });
-                terms.specular = Some(Highlight::Blinn { exponent });
-            }
+            "specular" if t.variant == "blinn" => terms.specular = Some(Highlight::Blinn(t.term.as_ref())),
             "specular" => terms.specular = Some(Highlight::Phong),
             "mirror" => terms.mirror = true,
             "refraction" => terms.refraction = true,
@@ -406,8 +400,8 @@ fn appearance(
         Some(Highlight::Phong) if m.shine > 0.0 && m.shine < 1.0 => {
             format!("phong {} phong_size {}", m.spec * m.shine, 1.0 / (1.0 - m.shine))
         }
-        Some(Highlight::Blinn { exponent }) => {
-            match exponent.or_else(|| lancer_shading::terms::specular::blinn_exponent(m.shine)) {
+        Some(Highlight::Blinn(term)) => {
+            match term.highlight_exponent(m) {
                 // In f64: an exponent below f32's smallest normal still has a finite inverse
                 // (POV-Ray raises to 1/roughness, so a huge roughness is Lancer's `c^0`).
                 Some(e) if m.spec * m.shine > 0.0 => {

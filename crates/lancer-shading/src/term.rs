@@ -253,6 +253,14 @@ pub trait Term: Send + Sync {
         None
     }
 
+    /// The exponent a half-vector highlight (Blinn's) raises `N·h` to on a surface of
+    /// `material`, `None` where it adds no highlight; `lancer export pov` writes it as POV-Ray's
+    /// `roughness 1/e`. `None` for every other term (the default).
+    fn highlight_exponent(&self, material: &Material) -> Option<f32> {
+        let _ = material;
+        None
+    }
+
     /// The inputs of the term's formula at `lane` of `chunk`, for `lancer explain` (called after
     /// [`Term::run`], on one-lane chunks, only while a pixel is explained). The default says
     /// nothing; the built-in terms list what their formula reads (e.g. `−u·w_r` and the

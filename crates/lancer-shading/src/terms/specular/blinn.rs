@@ -35,6 +35,11 @@ impl Term for Blinn {
         material.spec > 0.0 && material.shine > 0.0 && (self.exponent.is_some() || material.shine < 1.0)
     }
 
+    /// `exponent` if given, else derived from `shine` ([`blinn_exponent`]).
+    fn highlight_exponent(&self, material: &lancer_core::Material) -> Option<f32> {
+        self.exponent.or_else(|| blinn_exponent(material.shine))
+    }
+
     fn why_idle(&self, material: &lancer_core::Material) -> Option<String> {
         // A fixed exponent does not come from shine.
         if self.exponent.is_some() { None } else { super::infinite_exponent(material, "4/(1 − shine)") }
@@ -45,7 +50,7 @@ impl Term for Blinn {
         let (_, n) = facing(&chunk, lane);
         let u = chunk.rays.dir.at(lane);
         let mut notes = vec![Note::number("spec", m.spec), Note::number("shine", m.shine)];
-        let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { return notes };
+        let Some(e) = self.highlight_exponent(m) else { return notes };
         notes.push(Note::number(if self.exponent.is_some() { "exponent" } else { "exponent 4/(1−shine)" }, e));
         for (k, _, w) in lit_by(&chunk, lane, n) {
             let h = (w - u).normalize_or_zero();
@@ -65,7 +70,7 @@ impl Term for Blinn {
             if m.spec <= 0.0 || m.shine <= 0.0 {
                 continue;
             }
-            let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { continue };
+            let Some(e) = self.highlight_exponent(m) else { continue };
             let (_, n) = facing(&chunk, lane);
             let u = chunk.rays.dir.at(lane);
             let sum = sum_lights(&chunk, lane, n, |_, w| half_vector_lobe(n, w, u, e));

@@ -38,6 +38,11 @@ impl Term for BlinnNormalized {
         material.spec > 0.0 && (self.exponent.is_some() || material.shine < 1.0)
     }
 
+    /// `exponent` if given, else derived from `shine` ([`blinn_exponent`]).
+    fn highlight_exponent(&self, material: &lancer_core::Material) -> Option<f32> {
+        self.exponent.or_else(|| blinn_exponent(material.shine))
+    }
+
     fn why_idle(&self, material: &lancer_core::Material) -> Option<String> {
         // A fixed exponent does not come from shine.
         if self.exponent.is_some() { None } else { super::infinite_exponent(material, "4/(1 − shine)") }
@@ -48,7 +53,7 @@ impl Term for BlinnNormalized {
         let (_, n) = facing(&chunk, lane);
         let u = chunk.rays.dir.at(lane);
         let mut notes = vec![Note::number("spec", m.spec)];
-        let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { return notes };
+        let Some(e) = self.highlight_exponent(m) else { return notes };
         notes.push(Note::number(if self.exponent.is_some() { "exponent" } else { "exponent 4/(1−shine)" }, e));
         notes.push(Note::number("(e + 8)/(8π)", (e + 8.0) / (8.0 * PI)));
         for (k, nw, w) in lit_by(&chunk, lane, n) {
@@ -69,7 +74,7 @@ impl Term for BlinnNormalized {
             if m.spec <= 0.0 {
                 continue;
             }
-            let Some(e) = self.exponent.or_else(|| blinn_exponent(m.shine)) else { continue };
+            let Some(e) = self.highlight_exponent(m) else { continue };
             let (_, n) = facing(&chunk, lane);
             let u = chunk.rays.dir.at(lane);
             let norm = (e + 8.0) / (8.0 * PI);
