@@ -47,8 +47,10 @@ fn lancer_run_to(lancer: &Path, scene: &Path, threads: u32, extra: &[&str], imag
     if !out.status.success() {
         bail!("lancer failed: {text}");
     }
+    // Read from the summary line only (a warning printed before it may hold the same words).
+    let summary = text.lines().rev().find(|l| l.starts_with("rendered ")).unwrap_or("");
     let after =
-        |key: &str, until: &str| -> Option<f64> { text.split(key).nth(1)?.split(until).next()?.trim().parse().ok() };
+        |key: &str, until: &str| -> Option<f64> { summary.split(key).nth(1)?.split(until).next()?.trim().parse().ok() };
     let peak_mb = after("peak memory ", " MB").unwrap_or(f64::NAN);
     match (after(" in ", " s"), after(": ", " M rays"), after("scene loaded in ", " s"), ray_kinds(&text)) {
         (Some(secs), Some(rays), Some(load), Some(kinds)) => {

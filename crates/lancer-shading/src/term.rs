@@ -254,8 +254,9 @@ pub trait Term: Send + Sync {
     }
 
     /// The exponent a half-vector highlight (Blinn's) raises `N·h` to on a surface of
-    /// `material`, `None` where it adds no highlight; `lancer export pov` writes it as POV-Ray's
-    /// `roughness 1/e`. `None` for every other term (the default).
+    /// `material`, `None` where none is defined (`shine ≥ 1` with no `exponent` given); `lancer
+    /// export pov` writes it as POV-Ray's `roughness 1/e`. `None` for every other term (the
+    /// default).
     fn highlight_exponent(&self, material: &Material) -> Option<f32> {
         let _ = material;
         None

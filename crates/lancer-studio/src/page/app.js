@@ -133,6 +133,10 @@ function receiveFrame(buffer) {
 
 function showFrame(f) {
   frame = f;
+  // A progress update held back is older than this frame.
+  clearTimeout(progressTimer);
+  progressTimer = null;
+  progressShown = performance.now();
   studio.arrivals.push({ generation: f.generation, coarse: f.coarse, at: performance.now() });
   $("error").hidden = true;
   $("progress").value = f.coarse ? 0 : 1;
