@@ -103,11 +103,10 @@ fn compare(lancer: &Path, povray: &Path, scene: &Path, width: Option<&str>, extr
     let lancer_img = image::open(out.join("lancer.png"))?.into_rgb8();
     let (w, h) = lancer_img.dimensions();
     let pov_text = std::fs::read_to_string(out.join("scene.pov"))?;
-    let antialias = pov_text.lines().find(|l| l.starts_with("// Render:")).is_some_and(|l| l.contains("+A"));
     let mut pov = Command::new(povray);
     pov.current_dir(&out)
         .args(["+Iscene.pov", &format!("+W{w}"), &format!("+H{h}"), "-D", "-V", "+WT2", "+Opovray.png"])
-        .arg(if antialias { "+A0.0" } else { "-A" });
+        .args(antialias_of(&pov_text));
     run(&mut pov, "povray")?;
     let pov_img = image::open(out.join("povray.png"))?.into_rgb8();
     if pov_img.dimensions() != (w, h) {
@@ -152,4 +151,18 @@ fn compare(lancer: &Path, povray: &Path, scene: &Path, width: Option<&str>, extr
     );
     std::fs::write(out.join("index.html"), html)?;
     Ok(Compared { psnr, visible: share, width: w, height: h })
+}
+
+/// The anti-aliasing options of the exported scene's `// Render:` line (`-A` when it has none):
+/// `+A…`, `-A`, `+R…`, `-J` and `Antialias_…=…`.
+fn antialias_of(pov_text: &str) -> Vec<String> {
+    let line = pov_text.lines().find(|l| l.starts_with("// Render:")).unwrap_or_default();
+    let flags: Vec<String> = line
+        .split_whitespace()
+        .filter(|t| {
+            t.starts_with("+A") || *t == "-A" || t.starts_with("+R") || *t == "-J" || t.starts_with("Antialias_")
+        })
+        .map(str::to_owned)
+        .collect();
+    if flags.is_empty() { vec!["-A".to_owned()] } else { flags }
 }

@@ -115,9 +115,12 @@ pub(crate) struct SceneArgs {
     /// Image height (the width follows the scene's aspect ratio unless --width is given).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
     height: Option<u32>,
-    /// Samples per pixel (anti-aliasing), overriding the scene's.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
-    pub(crate) samples: Option<u32>,
+    /// Anti-aliasing, overriding the scene's: N samples per pixel (1 to 4096), or
+    /// `adaptive[:threshold=T][:depth=D]` (POV-Ray's `+AT +RD`): each pixel once at its centre,
+    /// then D x D more samples (and the centre again) where it differs from a neighbour by T or
+    /// more (0 to 3, summed over R, G, B as a PNG stores them; 0.3 and 3 unless given).
+    #[arg(long, value_name = "N|adaptive:threshold=T:depth=D", value_parser = parse_samples)]
+    pub(crate) samples: Option<Samples>,
     /// Largest file (scene, model, mesh or texture) Lancer will read, in MB.
     #[arg(long, value_name = "MB", default_value_t = MAX_FILE_MB, value_parser = clap::value_parser!(u64).range(1..))]
     pub(crate) max_file_size: u64,
@@ -568,7 +571,7 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
     let img = &mut scene.image;
     resize(img, args.width, args.height);
     if let Some(s) = args.samples {
-        img.samples = s;
+        s.apply(img);
     }
     check_pixels(img)?;
     let mut identity = sources.into_inner();
@@ -578,11 +581,72 @@ fn load_recording(registry: &Registry, args: &SceneArgs, inputs: &Inputs) -> Res
     for x in [img.width, img.height, img.samples] {
         settings.extend(x.to_le_bytes());
     }
+    if let Some(a) = img.adaptive {
+        settings.extend(b"adaptive");
+        settings.extend(a.threshold.to_bits().to_le_bytes());
+        settings.extend(a.depth.to_le_bytes());
+    }
     for c in img.background.to_array() {
         settings.extend(c.to_bits().to_le_bytes());
     }
     identity.image = crate::part::digest(&settings);
     Ok(Loaded { scene, pipeline, warnings, places, identity, name, source: src, load_time })
+}
+
+/// `--samples`: every pixel's number of samples, or adaptive anti-aliasing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Samples {
+    /// `N`.
+    Uniform(u32),
+    /// `adaptive:threshold=T:depth=D`.
+    Adaptive(lancer_core::Adaptive),
+}
+
+impl Samples {
+    /// Sets the image's sampling to this (the scene's is replaced, adaptive or not).
+    pub fn apply(self, image: &mut lancer_core::ImageSettings) {
+        (image.samples, image.adaptive) = match self {
+            Samples::Uniform(n) => (n, None),
+            Samples::Adaptive(a) => (1, Some(a)),
+        };
+    }
+}
+
+/// Parses `--samples`: `N` (1 to 4096) or `adaptive[:threshold=T][:depth=D]`.
+pub fn parse_samples(text: &str) -> std::result::Result<Samples, String> {
+    let mut parts = text.split(':');
+    let head = parts.next().unwrap_or_default().trim();
+    if head != "adaptive" {
+        return match head.parse::<u32>() {
+            Ok(n) if (1..=4096).contains(&n) && text.trim() == head => Ok(Samples::Uniform(n)),
+            _ => Err(format!(
+                "expected a whole number of samples per pixel from 1 to 4096, or adaptive[:threshold=T][:depth=D], found `{text}`"
+            )),
+        };
+    }
+    let mut adaptive = lancer_core::Adaptive { threshold: 0.3, depth: 3 };
+    for part in parts {
+        let (key, value) = part
+            .split_once('=')
+            .ok_or_else(|| format!("`{part}`: give adaptive's parameters as KEY=VALUE, e.g. threshold=0.3"))?;
+        match key.trim() {
+            "threshold" => match value.trim().parse::<f32>() {
+                Ok(t) if (0.0..=3.0).contains(&t) => adaptive.threshold = t,
+                _ => return Err(format!("adaptive threshold: expected a number from 0 to 3, found `{value}`")),
+            },
+            "depth" => match value.trim().parse::<u32>() {
+                Ok(d) if (1..=lancer_core::Adaptive::MAX_DEPTH).contains(&d) => adaptive.depth = d,
+                _ => {
+                    return Err(format!(
+                        "adaptive depth: expected a whole number from 1 to {}, found `{value}`",
+                        lancer_core::Adaptive::MAX_DEPTH
+                    ));
+                }
+            },
+            other => return Err(format!("adaptive has no parameter `{other}`; it takes threshold and depth")),
+        }
+    }
+    Ok(Samples::Adaptive(adaptive))
 }
 
 /// Every term keeps a float image of the frame: the total is bounded before any is allocated.

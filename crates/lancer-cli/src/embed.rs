@@ -153,7 +153,8 @@ pub fn apply(
     let mut image = *image;
     resize(&mut image, settings.width, settings.height);
     if let Some(s) = settings.samples {
-        image.samples = s;
+        // Samples given: every pixel that many, in place of the scene's adaptive sampling.
+        (image.samples, image.adaptive) = (s, None);
     }
     check_pixels(&image)?;
     Ok((pipeline, image))

@@ -91,6 +91,19 @@ enum Highlight<'a> {
     Blinn(&'a dyn lancer_shading::Term),
 }
 
+/// POV-Ray's anti-aliasing options for the image's sampling: Lancer's adaptive anti-aliasing
+/// is POV-Ray's method 1 with the same threshold and grid, without jitter (Lancer's grid is
+/// regular) and comparing sRGB-like values (`Antialias_Gamma=2.2`: POV-Ray's default, 2.5,
+/// would pick other pixels than the PNG's differences do); uniform samples become POV-Ray's
+/// adaptive method 2 with a zero threshold (every pixel supersampled), one sample `-A`.
+pub fn antialias_flags(image: &lancer_core::ImageSettings) -> String {
+    match image.adaptive {
+        Some(a) => format!("+A{} +AM1 +R{} -J Antialias_Gamma=2.2", a.threshold, a.depth),
+        None if image.samples > 1 => "+A0.0 +AM2 +R3".to_owned(),
+        None => "-A".to_owned(),
+    }
+}
+
 /// Writes the scene. `texture_stem` names the image files (`<stem>-<k>.png`).
 pub fn export(
     prepared: &Prepared,
@@ -221,7 +234,7 @@ pub fn export(
         "// Render: povray +I<this file> +W{} +H{} {} +O<image>.png",
         image.width,
         image.height,
-        if image.samples > 1 { "+A0.0 +AM2 +R3" } else { "-A" }
+        antialias_flags(image)
     );
     if notes.is_empty() {
         text.push_str("// Everything in the scene has a POV-Ray counterpart.\n");

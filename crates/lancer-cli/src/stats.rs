@@ -24,13 +24,15 @@ fn with_params(name: &str, params: &[(String, ParamValue)]) -> String {
 pub fn effective_model(pipeline: &Pipeline, image: &ImageSettings) -> String {
     let terms: Vec<String> =
         pipeline.terms.iter().map(|t| with_params(&format!("{}:{}", t.name, t.variant), &t.params)).collect();
+    let samples = match image.adaptive {
+        Some(a) => format!("adaptive samples (threshold {}, depth {})", a.threshold, a.depth),
+        None => format!("{} sample{} per pixel", image.samples.max(1), if image.samples > 1 { "s" } else { "" }),
+    };
     format!(
-        "terms {}; shadows {}; max_depth {}; {} sample{} per pixel",
+        "terms {}; shadows {}; max_depth {}; {samples}",
         terms.join(", "),
         with_params(&pipeline.shadows.name, &pipeline.shadows.params),
         pipeline.max_depth,
-        image.samples.max(1),
-        if image.samples > 1 { "s" } else { "" }
     )
 }
 
@@ -81,6 +83,17 @@ impl Run<'_> {
             s.camera_rays as f64 / pixels.max(1) as f64
         );
         let _ = writeln!(out, "Rays:    {:>12}   Max Level: {}/{}", s.total(), s.max_level, self.pipeline.max_depth);
+        if let Some(a) = self.image.adaptive {
+            let _ = writeln!(
+                out,
+                "Supersampled: {:>7} pixels ({:.1} %) at {} samples each (threshold {}, depth {})",
+                s.supersampled,
+                100.0 * s.supersampled as f64 / pixels.max(1) as f64,
+                a.samples(),
+                a.threshold,
+                a.depth
+            );
+        }
         let _ = writeln!(out, "{line}");
         let _ = writeln!(out, "{:<28}{:>12}", "Camera Rays:", s.camera_rays);
         for (term, count) in self.pipeline.terms.iter().zip(&s.spawned) {
@@ -130,6 +143,11 @@ impl Run<'_> {
             width: img.width,
             height: img.height,
             samples_per_pixel: img.samples.max(1),
+            adaptive: img.adaptive.map(|a| Adaptive {
+                threshold: a.threshold,
+                depth: a.depth,
+                supersampled_pixels: s.supersampled,
+            }),
             model: Model {
                 summary: effective_model(p, img),
                 terms: p
@@ -165,6 +183,14 @@ impl Run<'_> {
     }
 }
 
+/// Adaptive anti-aliasing's settings and how many pixels it supersampled.
+#[derive(Serialize)]
+struct Adaptive {
+    threshold: f32,
+    depth: u32,
+    supersampled_pixels: u64,
+}
+
 /// What `Doc::generator` says: a manifest of Lancer's, whose `files` Lancer may remove.
 pub const GENERATOR: &str = "lancer";
 
@@ -175,6 +201,8 @@ struct Doc<'a> {
     width: u32,
     height: u32,
     samples_per_pixel: u32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    adaptive: Option<Adaptive>,
     model: Model<'a>,
     rays: Rays<'a>,
     max_level: u8,

@@ -35,6 +35,8 @@ pub struct RenderStats {
     pub spawned: Vec<u64>,
     /// The deepest generation traced (0: camera rays only).
     pub max_level: u8,
+    /// Pixels supersampled by adaptive anti-aliasing ([`crate::Adaptive`]).
+    pub supersampled: u64,
     /// Time spent in each system, summed over threads (zero unless the render was asked to
     /// time itself).
     pub times: SystemTimes,
@@ -89,6 +91,7 @@ impl std::ops::AddAssign for RenderStats {
         self.peak_lanes = self.peak_lanes.max(o.peak_lanes);
         add_each(&mut self.spawned, &o.spawned);
         self.max_level = self.max_level.max(o.max_level);
+        self.supersampled += o.supersampled;
         let (t, u) = (&mut self.times, &o.times);
         t.camera += u.camera;
         t.trace += u.trace;

@@ -10,14 +10,16 @@ pub mod material;
 pub mod optics;
 pub mod rays;
 pub mod scene;
+pub mod srgb;
 pub mod texture;
 
 pub use camera::Camera;
 pub use frame::{Frame, Layer, RenderStats, SystemTimes};
 pub use glam::Vec3;
 pub use material::{Light, Material, Pattern};
-pub use scene::{ImageSettings, MaterialOf, Meta, Position, Scene, Transform};
-pub use texture::{Texels, Texture, srgb_decode};
+pub use scene::{Adaptive, ImageSettings, MaterialOf, Meta, Position, Scene, Transform};
+pub use srgb::{srgb_decode, srgb_encode, srgb8};
+pub use texture::{Texels, Texture};
 
 /// A linear RGB colour (no gamma), stored as a `Vec3`.
 pub type Rgb = Vec3;

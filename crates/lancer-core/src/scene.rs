@@ -56,13 +56,62 @@ pub struct ImageSettings {
     pub height: u32,
     /// Linear RGB seen by rays that hit nothing.
     pub background: Vec3,
-    /// Samples per pixel.
+    /// Samples per pixel (1 with [`ImageSettings::adaptive`]: the first pass).
     pub samples: u32,
+    /// Adaptive anti-aliasing: one sample at each pixel's centre, then more where a pixel
+    /// differs from a neighbour; `None`, every pixel gets `samples`.
+    pub adaptive: Option<Adaptive>,
 }
 
 impl Default for ImageSettings {
     fn default() -> Self {
-        ImageSettings { width: 640, height: 480, background: Vec3::ZERO, samples: 1 }
+        ImageSettings { width: 640, height: 480, background: Vec3::ZERO, samples: 1, adaptive: None }
+    }
+}
+
+/// Adaptive anti-aliasing, as POV-Ray's method 1 (`+A<threshold> +R<depth>`): every pixel is
+/// first traced once, at its centre; a pixel whose first value differs from one of its four
+/// neighbours' by `threshold` or more is traced again at its centre and at the centres of a
+/// `depth` x `depth` grid of cells, and its value is the mean of those `depth² + 1` samples.
+/// Two values differ by the sum over red, green and blue of their difference as a PNG stores
+/// them (8-bit sRGB, in steps of 1/255), from 0 to 3.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Adaptive {
+    /// The difference from which a pixel is supersampled, in [0, 3].
+    pub threshold: f32,
+    /// The side of the grid of samples of a supersampled pixel, from 1 to [`Adaptive::MAX_DEPTH`].
+    pub depth: u32,
+}
+
+impl Adaptive {
+    /// Largest grid side: 16 (257 samples a pixel).
+    pub const MAX_DEPTH: u32 = 16;
+
+    /// The samples of a supersampled pixel: its centre and the grid's.
+    pub fn samples(self) -> u32 {
+        self.depth * self.depth + 1
+    }
+
+    /// Sub-pixel position of sample `s` of a supersampled pixel: sample 0 at the centre, then
+    /// the grid's cell centres row by row.
+    pub fn offset(self, s: u32) -> (f32, f32) {
+        if s == 0 {
+            return (0.5, 0.5);
+        }
+        let (k, r) = (s - 1, self.depth.max(1));
+        (((k % r) as f32 + 0.5) / r as f32, ((k / r) as f32 + 0.5) / r as f32)
+    }
+
+    /// A pixel's value as it is compared: the bytes a PNG stores for it ([`crate::srgb8`]).
+    pub fn shown(v: Vec3) -> [u8; 3] {
+        v.to_array().map(crate::srgb8)
+    }
+
+    /// Whether two pixels' [`Adaptive::shown`] values differ by the threshold or more: the sum
+    /// over red, green and blue of their differences, in steps of 1/255, from 0 to 3.
+    pub fn differ(self, a: [u8; 3], b: [u8; 3]) -> bool {
+        let steps: u32 = (0..3).map(|i| a[i].abs_diff(b[i]) as u32).sum();
+        steps as f32 / 255.0 >= self.threshold
     }
 }
 

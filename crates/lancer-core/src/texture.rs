@@ -6,10 +6,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-/// The sRGB transfer function undone: an encoded channel in [0, 1] to linear.
-pub fn srgb_decode(c: f32) -> f32 {
-    if c <= 0.04045 { c / 12.92 } else { libm::powf((c + 0.055) / 1.055, 2.4) }
-}
+pub use crate::srgb::srgb_decode;
 
 /// A texture's samples, row 0 at the top, channels interleaved.
 #[derive(Clone, Debug, PartialEq)]

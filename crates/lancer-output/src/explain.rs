@@ -71,6 +71,12 @@ impl Report<'_> {
         }
     }
 
+    /// The pixel's samples: its camera rays (with adaptive anti-aliasing, 1 or the
+    /// supersampled pixel's).
+    fn samples(&self) -> usize {
+        self.explanation.rays.iter().filter(|r| r.parent.is_none()).count()
+    }
+
     /// Whether the pixel keeps a background layer (as `--aov` writes one).
     fn has_background(&self) -> bool {
         self.image.background != Vec3::ZERO
@@ -82,16 +88,24 @@ impl Report<'_> {
         let p = self.pipeline;
         let mut out = String::new();
         let model: Vec<String> = p.terms.iter().map(|t| format!("{}:{}", t.name, t.variant)).collect();
+        let samples = self.samples();
+        let sampling = match self.image.adaptive {
+            Some(a) => format!(
+                "adaptive anti-aliasing (threshold {}, depth {}): {}",
+                a.threshold,
+                a.depth,
+                if samples > 1 {
+                    format!("supersampled, {samples} samples")
+                } else {
+                    "not supersampled, 1 sample".to_owned()
+                }
+            ),
+            None => format!("{samples} sample{}", if samples > 1 { "s" } else { "" }),
+        };
         let _ = writeln!(
             out,
-            "pixel {},{} of {} ({}x{}, {} sample{})",
-            e.x,
-            e.y,
-            self.scene,
-            self.image.width,
-            self.image.height,
-            self.image.samples.max(1),
-            if self.image.samples > 1 { "s" } else { "" }
+            "pixel {},{} of {} ({}x{}, {sampling})",
+            e.x, e.y, self.scene, self.image.width, self.image.height,
         );
         let _ = writeln!(out, "model: {}; shadows: {}; max_depth {}", model.join(", "), p.shadows.name, p.max_depth);
         let _ = writeln!(out, "u: ray direction, N: normal facing the ray, w: direction to a light\n");
@@ -124,7 +138,7 @@ impl Report<'_> {
             Some(name) => format!(", counts in the {name} image"),
             None => String::new(),
         };
-        let sample = if self.image.samples > 1 { format!(" (sample {})", ray.sample) } else { String::new() };
+        let sample = if self.samples() > 1 { format!(" (sample {})", ray.sample) } else { String::new() };
         let _ = writeln!(
             out,
             "{pad}{} ray{sample}, generation {}: from {} u = {}, weight {}{credit}",
@@ -234,7 +248,8 @@ impl Report<'_> {
             pixel: [e.x, e.y],
             width: self.image.width,
             height: self.image.height,
-            samples: self.image.samples.max(1),
+            samples: self.samples() as u32,
+            adaptive: self.image.adaptive.map(|a| JsonAdaptive { threshold: a.threshold, depth: a.depth }),
             model: JsonModel {
                 terms: self
                     .pipeline
@@ -315,12 +330,21 @@ impl Report<'_> {
 }
 
 #[derive(Serialize)]
+struct JsonAdaptive {
+    threshold: f32,
+    depth: u32,
+}
+
+#[derive(Serialize)]
 struct JsonDoc<'a> {
     scene: &'a str,
     pixel: [u32; 2],
     width: u32,
     height: u32,
+    /// The pixel's samples (with adaptive anti-aliasing, 1 or the supersampled pixel's).
     samples: u32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    adaptive: Option<JsonAdaptive>,
     model: JsonModel<'a>,
     rays: Vec<JsonRay<'a>>,
     terms: Ordered<'a, [f32; 3]>,

@@ -417,7 +417,16 @@ pub fn load_scene_within(
         width: doc.image.width,
         height: doc.image.height,
         background: Vec3::from(doc.image.background),
-        samples: doc.image.samples,
+        samples: match doc.image.samples {
+            crate::doc::SamplesDoc::Uniform(n) => n,
+            crate::doc::SamplesDoc::Adaptive(_) => 1,
+        },
+        adaptive: match doc.image.samples {
+            crate::doc::SamplesDoc::Uniform(_) => None,
+            crate::doc::SamplesDoc::Adaptive(a) => {
+                Some(lancer_core::Adaptive { threshold: a.adaptive, depth: a.depth })
+            }
+        },
     };
     for key in doc.materials.keys().filter(|n| !used.contains(n.get_ref().as_str())) {
         // At the table's header (`[materials.NAME]`) or the dotted key (`materials.NAME = ...`)

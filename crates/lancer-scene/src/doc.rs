@@ -129,11 +129,15 @@ fn one<'de, D: Deserializer<'de>>(d: D, lo: u32, hi: u32) -> Result<u32, D::Erro
             Ok(v)
         }
     }
-    let v = d.deserialize_any(Whole)?;
+    whole(d.deserialize_any(Whole)?, lo, hi)
+}
+
+/// `v` as a whole number in `[lo, hi]`.
+fn whole<E: de::Error>(v: f64, lo: u32, hi: u32) -> Result<u32, E> {
     if v.fract() == 0.0 && (lo as f64..=hi as f64).contains(&v) {
         Ok(v as u32)
     } else {
-        Err(de::Error::custom(format!("expected a whole number in [{lo}, {hi}], found {v}")))
+        Err(E::custom(format!("expected a whole number in [{lo}, {hi}], found {v}")))
     }
 }
 
@@ -144,8 +148,65 @@ fn side<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     one(d, 1, MAX_SIDE)
 }
 
-fn samples<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    one(d, 1, 4096)
+/// Most samples per pixel: 4096.
+pub const MAX_SAMPLES: u32 = 4096;
+
+/// `samples`: every pixel's number of samples, or adaptive anti-aliasing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SamplesDoc {
+    /// `samples = N`.
+    Uniform(u32),
+    /// `samples = { adaptive = THRESHOLD, depth = N }`.
+    Adaptive(AdaptiveDoc),
+}
+
+/// `samples = { adaptive = THRESHOLD, depth = N }` (POV-Ray's `+A<THRESHOLD> +R<N>`).
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveDoc {
+    /// The difference between neighbours from which a pixel is supersampled, in [0, 3].
+    #[serde(deserialize_with = "threshold")]
+    pub adaptive: f32,
+    /// The side of a supersampled pixel's grid of samples (3 unless given).
+    #[serde(default = "d_three", deserialize_with = "grid")]
+    pub depth: u32,
+}
+
+fn threshold<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    ranged(d, 0.0, 3.0)
+}
+
+fn grid<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    one(d, 1, lancer_core::Adaptive::MAX_DEPTH)
+}
+
+fn d_three() -> u32 {
+    3
+}
+
+impl<'de> Deserialize<'de> for SamplesDoc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<SamplesDoc, D::Error> {
+        struct Samples;
+        impl<'de> Visitor<'de> for Samples {
+            type Value = SamplesDoc;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a whole number of samples per pixel or a table { adaptive = THRESHOLD, depth = N }")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<SamplesDoc, E> {
+                whole(v as f64, 1, MAX_SAMPLES).map(SamplesDoc::Uniform)
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<SamplesDoc, E> {
+                whole(v as f64, 1, MAX_SAMPLES).map(SamplesDoc::Uniform)
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<SamplesDoc, E> {
+                whole(v, 1, MAX_SAMPLES).map(SamplesDoc::Uniform)
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<SamplesDoc, A::Error> {
+                AdaptiveDoc::deserialize(de::value::MapAccessDeserializer::new(map)).map(SamplesDoc::Adaptive)
+            }
+        }
+        d.deserialize_any(Samples)
+    }
 }
 
 /// Largest `max_depth`: 64 (the child ray's depth is a byte; Whitted scenes need 4 or 5).
@@ -197,13 +258,13 @@ pub struct ImageDoc {
     pub height: u32,
     #[serde(default, deserialize_with = "colour")]
     pub background: [f32; 3],
-    #[serde(default = "d_one", deserialize_with = "samples")]
-    pub samples: u32,
+    #[serde(default = "d_samples")]
+    pub samples: SamplesDoc,
 }
 
 impl Default for ImageDoc {
     fn default() -> Self {
-        ImageDoc { width: d_width(), height: d_height(), background: [0.0; 3], samples: 1 }
+        ImageDoc { width: d_width(), height: d_height(), background: [0.0; 3], samples: d_samples() }
     }
 }
 
@@ -213,8 +274,8 @@ fn d_width() -> u32 {
 fn d_height() -> u32 {
     480
 }
-fn d_one() -> u32 {
-    1
+fn d_samples() -> SamplesDoc {
+    SamplesDoc::Uniform(1)
 }
 
 #[derive(Deserialize)]

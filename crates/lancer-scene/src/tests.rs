@@ -807,3 +807,28 @@ fn regression_a_light_inside_glass_with_hard_shadows_was_said_to_reach_outside()
     let none = inside(warnings(&scene("none", "0")));
     assert!(none.contains("with `none` shadows nothing blocks its light"), "{none}");
 }
+
+#[test]
+fn samples_take_a_count_or_adaptive_anti_aliasing_and_bad_ones_are_located() {
+    let image = |samples: &str| format!("{CAMERA}[image]\nwidth = 8\nsamples = {samples}\n");
+    let loaded = |samples: &str| load_scene(&image(samples), "s.toml", &Registry::with_builtins()).unwrap().scene.image;
+    let four = loaded("4");
+    assert_eq!((four.samples, four.adaptive), (4, None));
+    let aa = loaded("{ adaptive = 0.3, depth = 4 }");
+    assert_eq!((aa.samples, aa.adaptive), (1, Some(lancer_core::Adaptive { threshold: 0.3, depth: 4 })));
+    // The depth is 3 unless given, as POV-Ray's +R.
+    assert_eq!(loaded("{ adaptive = 0 }").adaptive.map(|a| a.depth), Some(3));
+    for (samples, at, says) in [
+        ("{ adaptive = 3.5 }", "3.5", "expected a number in [0, 3], found 3.5"),
+        ("{ adaptive = 0.3, depth = 17 }", "17", "expected a whole number in [1, 16], found 17"),
+        ("{ adaptive = 0.3, deep = 2 }", "deep", "unknown field `deep`, expected `adaptive` or `depth`"),
+        ("{ depth = 2 }", "{ depth", "missing field `adaptive`"),
+        ("0", "0\n", "expected a whole number in [1, 4096], found 0"),
+        ("\"many\"", "\"many\"", "a whole number of samples per pixel or a table { adaptive = THRESHOLD, depth = N }"),
+    ] {
+        let src = image(samples);
+        let e = err(&src);
+        assert_eq!((e.line, e.column), pos(&src, at), "{samples}: {e}");
+        assert!(e.to_string().contains(says), "{samples}: {e}");
+    }
+}

@@ -386,6 +386,13 @@ pub(crate) struct Scratch {
     /// The order of the tile's pixels for its camera rays ([`cell_order`]), and the tile size
     /// it was made for.
     order: (Vec<(u32, u32)>, (u32, u32)),
+    /// The same for a tile with its border, in adaptive anti-aliasing ([`adaptive_tile`]).
+    border_order: (Vec<(u32, u32)>, (u32, u32)),
+    /// Adaptive anti-aliasing: the first values of a tile and its border, and the tile's pixels
+    /// to supersample.
+    first: Vec<Vec3>,
+    shown: Vec<[u8; 3]>,
+    refined: Vec<(u32, u32)>,
 }
 
 /// Whether some term of `pipeline` reads the light arriving on a surface of `material`: where
@@ -410,6 +417,27 @@ impl Scratch {
             next: Rays::with_capacity(WAVE),
             accum: vec![Vec::with_capacity((TILE_WIDTH * TILE) as usize); layers],
             order: (Vec::with_capacity((TILE_WIDTH * TILE) as usize), (0, 0)),
+            border_order: (Vec::new(), (0, 0)),
+            first: Vec::new(),
+            shown: Vec::new(),
+            refined: Vec::new(),
+        }
+    }
+
+    /// Every layer's accumulator set to `tile`'s pixels, all zero.
+    fn clear_accum(&mut self, tile: Tile) {
+        for acc in &mut self.accum {
+            acc.clear();
+            acc.resize((tile.w * tile.h) as usize, Vec3::ZERO);
+        }
+    }
+
+    /// `pixels` of `tile` set to zero in every layer.
+    fn zero_pixels(&mut self, tile: Tile, pixels: &[(u32, u32)]) {
+        for acc in &mut self.accum {
+            for &(i, row) in pixels {
+                acc[(row * tile.w + i) as usize] = Vec3::ZERO;
+            }
         }
     }
 
@@ -450,7 +478,8 @@ fn sample_offset(s: u32, n: u32) -> (f32, f32) {
     (((i / G).fract()) as f32, ((i / (G * G)).fract()) as f32)
 }
 
-/// Renders one tile into `scratch.accum` (tile-local rows), wave by wave of camera rays. With a
+/// Renders one tile into `scratch.accum` (tile-local rows), wave by wave of camera rays: every
+/// pixel's `samples`, or with [`ImageSettings::adaptive`] as [`adaptive_tile`] does. With a
 /// `recorder`, every ray is its own chunk and everything the systems find about it is kept (the
 /// sums are made in the same order as with full chunks: terms run chunk after chunk, lane after
 /// lane, either way).
@@ -463,110 +492,246 @@ pub(crate) fn render_tile(
     pipeline: &Pipeline,
     tile: Tile,
     scratch: &mut Scratch,
-    mut recorder: Option<&mut crate::explain::Recorder>,
+    recorder: Option<&mut crate::explain::Recorder>,
     timing: bool,
     stats: &mut RenderStats,
 ) {
-    let pixels = (tile.w * tile.h) as usize;
-    let background_layer = pipeline.terms.len();
-    for acc in &mut scratch.accum {
-        acc.clear();
-        acc.resize(pixels, Vec3::ZERO);
-    }
-    let shadow_ctx = ShadowContext::new(ctx);
     stats.spawned.resize(pipeline.terms.len(), 0);
     stats.times.terms.resize(pipeline.terms.len(), Default::default());
-    let mut lap = Lap::new(timing);
-    let times = &mut stats.times;
+    let pass = Pass { ctx, lit, camera, image, pipeline, timing };
+    if let Some(adaptive) = image.adaptive {
+        return adaptive_tile(&pass, tile, adaptive, scratch, recorder, stats);
+    }
+    let order = cell_order_of(&mut scratch.order, tile);
+    scratch.clear_accum(tile);
     let spp = image.samples.max(1) as usize;
-    let lanes = if recorder.is_some() { 1 } else { CHUNK_LANES };
-    if scratch.order.1 != (tile.w, tile.h) {
-        cell_order(tile.w, tile.h, &mut scratch.order.0);
-        scratch.order.1 = (tile.w, tile.h);
-    }
-    for wave in waves(pixels, spp) {
-        camera_system(camera, image, tile, &scratch.order.0, wave.clone(), ctx.reference, &mut scratch.next);
-        stats.camera_rays += scratch.next.len() as u64;
-        if let Some(r) = recorder.as_deref_mut() {
-            r.camera_rays(wave, spp);
-        }
-        lap.charge(&mut times.camera);
-        for level in 0u8.. {
-            stats.max_level = stats.max_level.max(level);
-            stats.peak_lanes = stats.peak_lanes.max(scratch.next.len() as u64);
-            scratch.spawn_chunks(ctx.lights.len(), lanes);
-            lap.charge(&mut times.chunks);
-            let Scratch { world, next, accum, .. } = scratch;
-            trace_system(world, ctx);
-            lap.charge(&mut times.trace);
-            crate::visibility::visibility_system(world, ctx, &shadow_ctx, pipeline, lit);
-            lap.charge(&mut times.visibility);
-            if let Some(r) = recorder.as_deref_mut() {
-                r.generation(world, ctx, pipeline, image.background);
-            }
-            background_system(world, image.background, background_layer, accum);
-            lap.charge(&mut times.background);
-            for (layer, named) in pipeline.terms.iter().enumerate() {
-                let queued = next.len();
-                for (c, (rays, hits, lights)) in world.query::<(&Rays, &Hits, &LightSamples)>().iter().enumerate() {
-                    let before = next.len();
-                    let mut added = Vec::new();
-                    let mut out = TermOutput {
-                        layer: layer as u16,
-                        weight: named.weight,
-                        rays,
-                        accum,
-                        next,
-                        max_depth: pipeline.max_depth,
-                        record: recorder.is_some().then_some(&mut added),
-                    };
-                    let chunk = Chunk { rays, hits, lights };
-                    named.term.run(ctx, chunk, &mut out);
-                    if let Some(r) = recorder.as_deref_mut() {
-                        let notes =
-                            if hits.object[0] != NO_HIT { named.term.explain(ctx, chunk, 0) } else { Vec::new() };
-                        r.term_ran(c, layer, notes, added, before..next.len());
-                    }
-                }
-                stats.spawned[layer] += (next.len() - queued) as u64;
-                lap.charge(&mut times.terms[layer]);
-            }
-            scratch.recycle();
-            lap.charge(&mut times.chunks);
-            if scratch.next.is_empty() {
-                break;
-            }
-            stats.secondary_rays += scratch.next.len() as u64;
-        }
-    }
-    stats.shadow_rays += shadow_ctx.rays();
+    pass.trace(tile, Shots { pixels: &order, spp, pattern: Pattern::Uniform }, scratch, recorder, stats);
+    scratch.order.0 = order;
 }
 
-/// Generation 0: the camera rays of the tile's pixel samples `range` (pixel-major, the pixels
-/// in `order`), each of weight `1 / samples`; with `reference`, each direction by itself
-/// ([`Camera::direction`]).
+/// The tile's pixels in [`cell_order`], taken out of `kept` (made again only when the tile's
+/// size changed); give it back after use.
+fn cell_order_of(kept: &mut (Vec<(u32, u32)>, (u32, u32)), tile: Tile) -> Vec<(u32, u32)> {
+    if kept.1 != (tile.w, tile.h) {
+        cell_order(tile.w, tile.h, &mut kept.0);
+        kept.1 = (tile.w, tile.h);
+    }
+    std::mem::take(&mut kept.0)
+}
+
+/// Adaptive anti-aliasing of one tile ([`lancer_core::Adaptive`]). First every pixel of the
+/// tile and of the one-pixel border around it (within the image) is traced once, at its
+/// centre: a pixel's first value is then known with all four of its neighbours' whatever tile
+/// it is in, so which pixels are supersampled does not depend on the tiles (nor on the
+/// threads, the parts or [`crate::explain_pixel`], which renders a pixel alone). The tile's own
+/// pixels keep their first values, layer by layer; those that differ from a neighbour by the
+/// threshold or more are traced again, `depth² + 1` samples each of weight `1 / (depth² + 1)`,
+/// and these replace them. Every layer is made so, and the beauty image is still their sum.
+fn adaptive_tile(
+    pass: &Pass<'_, '_>,
+    tile: Tile,
+    adaptive: lancer_core::Adaptive,
+    scratch: &mut Scratch,
+    recorder: Option<&mut crate::explain::Recorder>,
+    stats: &mut RenderStats,
+) {
+    let image = pass.image;
+    let (x0, y0) = (tile.x0.saturating_sub(1), tile.y0.saturating_sub(1));
+    let (x1, y1) = ((tile.x0 + tile.w + 1).min(image.width), (tile.y0 + tile.h + 1).min(image.height));
+    let border = Tile { x0, y0, w: x1 - x0, h: y1 - y0 };
+    let (dx, dy) = (tile.x0 - x0, tile.y0 - y0);
+    let order = cell_order_of(&mut scratch.border_order, border);
+    scratch.clear_accum(border);
+    pass.trace(border, Shots { pixels: &order, spp: 1, pattern: Pattern::Uniform }, scratch, None, stats);
+    scratch.border_order.0 = order;
+    // The first values (the layers' sum, as the beauty image is made) and as they are compared,
+    // then the tile's own
+    // pixels' layers moved to the tile's rows (each row moves towards the front, never over a
+    // row still to move).
+    let mut first = std::mem::take(&mut scratch.first);
+    first.clear();
+    first.resize((border.w * border.h) as usize, Vec3::ZERO);
+    for acc in &scratch.accum {
+        for (f, a) in first.iter_mut().zip(acc) {
+            *f += *a;
+        }
+    }
+    let mut shown = std::mem::take(&mut scratch.shown);
+    shown.clear();
+    shown.extend(first.iter().map(|&f| lancer_core::Adaptive::shown(f)));
+    for acc in &mut scratch.accum {
+        for row in 0..tile.h {
+            let from = ((row + dy) * border.w + dx) as usize;
+            acc.copy_within(from..from + tile.w as usize, (row * tile.w) as usize);
+        }
+        acc.truncate((tile.w * tile.h) as usize);
+    }
+    let order = cell_order_of(&mut scratch.order, tile);
+    let mut refined = std::mem::take(&mut scratch.refined);
+    refined.clear();
+    let value = |x: u32, y: u32| shown[(y * border.w + x) as usize];
+    refined.extend(order.iter().copied().filter(|&(i, row)| {
+        let (x, y) = (i + dx, row + dy);
+        let here = value(x, y);
+        let differs = |nx: u32, ny: u32| adaptive.differ(here, value(nx, ny));
+        (x > 0 && differs(x - 1, y))
+            || (x + 1 < border.w && differs(x + 1, y))
+            || (y > 0 && differs(x, y - 1))
+            || (y + 1 < border.h && differs(x, y + 1))
+    }));
+    scratch.order.0 = order;
+    (scratch.first, scratch.shown) = (first, shown);
+    stats.supersampled += refined.len() as u64;
+    let shots = Shots { pixels: &refined, spp: adaptive.samples() as usize, pattern: Pattern::Adaptive(adaptive) };
+    if recorder.is_some() && refined.is_empty() {
+        // Explaining a pixel that keeps its first value: its one ray again, recorded (the same
+        // ray of the same weight, so the same bits).
+        let centre = [(0, 0)];
+        scratch.zero_pixels(tile, &centre);
+        pass.trace(tile, Shots { pixels: &centre, spp: 1, pattern: Pattern::Uniform }, scratch, recorder, stats);
+    } else if !refined.is_empty() {
+        scratch.zero_pixels(tile, &refined);
+        pass.trace(tile, shots, scratch, recorder, stats);
+    }
+    scratch.refined = refined;
+}
+
+/// What every pass of camera rays through a tile shares.
+struct Pass<'a, 'c> {
+    ctx: &'a ShadeContext<'c>,
+    lit: &'a [bool],
+    camera: &'a Camera,
+    image: &'a ImageSettings,
+    pipeline: &'a Pipeline,
+    timing: bool,
+}
+
+/// Where a camera ray's sample falls in its pixel.
+#[derive(Clone, Copy)]
+enum Pattern {
+    /// [`sample_offset`]: the centre for one sample, else the R2 sequence.
+    Uniform,
+    /// [`lancer_core::Adaptive::offset`]: the centre, then a grid's cell centres.
+    Adaptive(lancer_core::Adaptive),
+}
+
+/// The camera rays of one pass: `spp` samples of each of `pixels` (tile-local, in this order),
+/// each of weight `1 / spp`.
+struct Shots<'a> {
+    pixels: &'a [(u32, u32)],
+    spp: usize,
+    pattern: Pattern,
+}
+
+impl Shots<'_> {
+    fn offset(&self, s: u32) -> (f32, f32) {
+        match self.pattern {
+            Pattern::Uniform => sample_offset(s, self.spp as u32),
+            Pattern::Adaptive(a) => a.offset(s),
+        }
+    }
+}
+
+impl Pass<'_, '_> {
+    /// Traces `shots` through `tile`, wave by wave, adding what they bring to `scratch.accum`
+    /// (which holds `tile`'s pixels).
+    fn trace(
+        &self,
+        tile: Tile,
+        shots: Shots<'_>,
+        scratch: &mut Scratch,
+        mut recorder: Option<&mut crate::explain::Recorder>,
+        stats: &mut RenderStats,
+    ) {
+        let Pass { ctx, lit, camera, image, pipeline, timing } = *self;
+        let background_layer = pipeline.terms.len();
+        let shadow_ctx = ShadowContext::new(ctx);
+        let mut lap = Lap::new(timing);
+        let times = &mut stats.times;
+        let spp = shots.spp;
+        let lanes = if recorder.is_some() { 1 } else { CHUNK_LANES };
+        for wave in waves(shots.pixels.len(), spp) {
+            camera_system(camera, image, tile, &shots, wave.clone(), ctx.reference, &mut scratch.next);
+            stats.camera_rays += scratch.next.len() as u64;
+            if let Some(r) = recorder.as_deref_mut() {
+                r.camera_rays(wave, spp);
+            }
+            lap.charge(&mut times.camera);
+            for level in 0u8.. {
+                stats.max_level = stats.max_level.max(level);
+                stats.peak_lanes = stats.peak_lanes.max(scratch.next.len() as u64);
+                scratch.spawn_chunks(ctx.lights.len(), lanes);
+                lap.charge(&mut times.chunks);
+                let Scratch { world, next, accum, .. } = scratch;
+                trace_system(world, ctx);
+                lap.charge(&mut times.trace);
+                crate::visibility::visibility_system(world, ctx, &shadow_ctx, pipeline, lit);
+                lap.charge(&mut times.visibility);
+                if let Some(r) = recorder.as_deref_mut() {
+                    r.generation(world, ctx, pipeline, image.background);
+                }
+                background_system(world, image.background, background_layer, accum);
+                lap.charge(&mut times.background);
+                for (layer, named) in pipeline.terms.iter().enumerate() {
+                    let queued = next.len();
+                    for (c, (rays, hits, lights)) in world.query::<(&Rays, &Hits, &LightSamples)>().iter().enumerate() {
+                        let before = next.len();
+                        let mut added = Vec::new();
+                        let mut out = TermOutput {
+                            layer: layer as u16,
+                            weight: named.weight,
+                            rays,
+                            accum,
+                            next,
+                            max_depth: pipeline.max_depth,
+                            record: recorder.is_some().then_some(&mut added),
+                        };
+                        let chunk = Chunk { rays, hits, lights };
+                        named.term.run(ctx, chunk, &mut out);
+                        if let Some(r) = recorder.as_deref_mut() {
+                            let notes =
+                                if hits.object[0] != NO_HIT { named.term.explain(ctx, chunk, 0) } else { Vec::new() };
+                            r.term_ran(c, layer, notes, added, before..next.len());
+                        }
+                    }
+                    stats.spawned[layer] += (next.len() - queued) as u64;
+                    lap.charge(&mut times.terms[layer]);
+                }
+                scratch.recycle();
+                lap.charge(&mut times.chunks);
+                if scratch.next.is_empty() {
+                    break;
+                }
+                stats.secondary_rays += scratch.next.len() as u64;
+            }
+        }
+        stats.shadow_rays += shadow_ctx.rays();
+    }
+}
+
+/// Generation 0: the camera rays of `shots`' samples `range` (pixel-major), each of weight
+/// `1 / shots.spp`; with `reference`, each direction by itself ([`Camera::direction`]).
 fn camera_system(
     camera: &Camera,
     image: &ImageSettings,
     tile: Tile,
-    order: &[(u32, u32)],
+    shots: &Shots<'_>,
     range: std::ops::Range<usize>,
     reference: bool,
     out: &mut Rays,
 ) {
-    let spp = image.samples.max(1);
-    let weight = Vec3::splat(1.0 / spp as f32);
+    let weight = Vec3::splat(1.0 / shots.spp as f32);
     // Eight rays at a time; the columns start empty, so each eight fill a packet.
     assert!(out.is_empty(), "camera rays go into empty columns");
     // The pixel and sample of lane `range.start`, then one sample after another.
-    let spp = spp as usize;
+    let spp = shots.spp;
     let (mut at, mut s) = (range.start / spp, range.start % spp);
     for start in range.clone().step_by(PACKET) {
         let lanes = (range.end - start).min(PACKET);
         let (mut px, mut py, mut pixels) = ([0.0f32; PACKET], [0.0f32; PACKET], [0u32; PACKET]);
         for j in 0..lanes {
-            let (i, row) = order[at];
-            let (ox, oy) = sample_offset(s as u32, spp as u32);
+            let (i, row) = shots.pixels[at];
+            let (ox, oy) = shots.offset(s as u32);
             (px[j], py[j], pixels[j]) = ((tile.x0 + i) as f32 + ox, (tile.y0 + row) as f32 + oy, row * tile.w + i);
             s += 1;
             if s == spp {

@@ -243,14 +243,18 @@ impl State {
 
 /// The image settings a render of `state` uses: the scene's, with the state's samples per pixel;
 /// the coarse image, shown at once while the full one renders, a quarter of the size at one
-/// sample per pixel.
+/// sample per pixel. The scene's adaptive anti-aliasing is kept while the samples are the
+/// scene's; samples set in the studio are every pixel's.
 pub fn image_for(base: &lancer_core::ImageSettings, state: &State, coarse: bool) -> lancer_core::ImageSettings {
     let mut image = *base;
     image.samples = state.model.samples;
+    if image.samples != base.samples {
+        image.adaptive = None;
+    }
     if coarse {
         image.width = (image.width / 4).max(1);
         image.height = (image.height / 4).max(1);
-        image.samples = 1;
+        (image.samples, image.adaptive) = (1, None);
     }
     image
 }

@@ -325,7 +325,7 @@ pub(crate) fn make(registry: &Registry, path: &Path, options: &Options) -> Resul
     }
 
     let mut input = SceneArgs::of(Some(folder.join(doc.scene.get_ref())));
-    input.samples = options.samples.or(doc.samples.as_ref().map(|s| *s.get_ref()));
+    input.samples = options.samples.or(doc.samples.as_ref().map(|s| *s.get_ref())).map(crate::app::Samples::Uniform);
     let planner_of = |labels| Planner { registry, file: &file, folder: folder.clone(), labels };
     let loaded =
         crate::app::load(registry, &input).map_err(|e| planner_of(&[]).beside(doc.scene.span(), "the scene", "", e))?;
