@@ -80,10 +80,22 @@ fn povray_run(pov: &Path, w: u32, h: u32, threads: u32) -> Result<f64> {
 
 /// POV-Ray's "Parse Time" and "Trace Time" in seconds for `scene` at `w`×`h` on `threads` threads.
 fn povray_times(pov: &Path, w: u32, h: u32, threads: u32) -> Result<(f64, f64)> {
-    let out_png = std::env::temp_dir().join("lancer-bench-pov.png");
+    povray_times_with(pov, w, h, threads, &["-A"], &std::env::temp_dir().join("lancer-bench-pov.png"))
+}
+
+/// [`povray_times`] with the anti-aliasing options `antialias`, the image written to `out_png`.
+fn povray_times_with(
+    pov: &Path,
+    w: u32,
+    h: u32,
+    threads: u32,
+    antialias: &[&str],
+    out_png: &Path,
+) -> Result<(f64, f64)> {
     let out = Command::new("povray")
         .arg(format!("+I{}", pov.display()))
-        .args([format!("+W{w}"), format!("+H{h}"), "-A".into(), format!("+WT{threads}"), "-D".into()])
+        .args([format!("+W{w}"), format!("+H{h}"), format!("+WT{threads}"), "-D".into()])
+        .args(antialias)
         .arg(format!("+O{}", out_png.display()))
         // Beside the scene: an exported scene's image maps are found there.
         .current_dir(pov.parent().unwrap_or(Path::new(".")))
@@ -100,6 +112,79 @@ fn povray_times(pov: &Path, w: u32, h: u32, threads: u32) -> Result<(f64, f64)> 
         secs.with_context(|| format!("could not read povray's {what} from `{line}`"))
     };
     Ok((time("Parse Time:")?, time("Trace Time:")?))
+}
+
+/// Adaptive anti-aliasing on the anchor at 1280x720, 2 threads: Lancer's `adaptive` (threshold
+/// 0.3, depth 3) against POV-Ray's `+A0.3 +AM1 +R3` with the options `lancer export pov` writes
+/// for it, and against Lancer's uniform 9 samples a pixel; each image's PSNR against Lancer at
+/// 64 samples a pixel (the converged image), and Lancer's against POV-Ray's at the same settings.
+fn aa_rows(
+    lancer: &Path,
+    runs: usize,
+    has_pov: bool,
+    json: &mut serde_json::Map<String, serde_json::Value>,
+) -> Result<()> {
+    let anchor = root().join("scenes/bench/anchor.toml");
+    let pov = root().join("scenes/bench/anchor.pov");
+    let tmp = std::env::temp_dir();
+    let adaptive = "adaptive:threshold=0.3:depth=3";
+    let read = |name: &str| -> Result<image::RgbImage> {
+        Ok(image::open(tmp.join(name)).with_context(|| format!("reading {name}"))?.into_rgb8())
+    };
+    let run_to = |samples: &str, image: &str| -> Result<Run> {
+        let all = (0..runs.max(1))
+            .map(|_| lancer_run_to(lancer, &anchor, 2, &["--samples", samples], image))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(median_by_secs(all))
+    };
+    println!(
+        "\nAdaptive anti-aliasing (the anchor at 1280x720, 2 threads, median of {runs}; PSNR against Lancer at 64 samples a pixel)"
+    );
+    println!("{:<40} {:>10} {:>13} {:>12}", "", "render (s)", "camera rays", "PSNR (dB)");
+    let reference = lancer_run_to(lancer, &anchor, 2, &["--samples", "64"], "lancer-bench-aa-64.png")?;
+    let converged = read("lancer-bench-aa-64.png")?;
+    let mut rows = serde_json::Map::new();
+    for (key, what, samples, image) in [
+        ("lancer_adaptive", "Lancer adaptive (0.3, depth 3)", adaptive, "lancer-bench-aa.png"),
+        ("lancer_9spp", "Lancer 9 samples a pixel", "9", "lancer-bench-aa-9.png"),
+        ("lancer_1spp", "Lancer 1 sample a pixel", "1", "lancer-bench-aa-1.png"),
+    ] {
+        let r = run_to(samples, image)?;
+        let db = crate::compare::psnr(&read(image)?, &converged);
+        println!("{what:<40} {:>10.3} {:>13} {db:>12.1}", r.secs, r.kinds[0]);
+        rows.insert(
+            key.into(),
+            serde_json::json!({ "render_s": r.secs, "camera_rays": r.kinds[0], "psnr_vs_64spp_db": db }),
+        );
+    }
+    println!("{:<40} {:>10.3} {:>13} {:>12}", "Lancer 64 samples a pixel", reference.secs, reference.kinds[0], "-");
+    if has_pov {
+        let flags = ["+A0.3", "+AM1", "+R3", "-J", "Antialias_Gamma=2.2"];
+        let png = tmp.join("lancer-bench-aa-pov.png");
+        let times = (0..runs.max(1))
+            .map(|_| povray_times_with(&pov, 1280, 720, 2, &flags, &png))
+            .collect::<Result<Vec<_>>>()?;
+        let trace = median(times.iter().map(|t| t.1).collect());
+        let pov_img = image::open(&png).context("reading POV-Ray's image")?.into_rgb8();
+        let (db, same) =
+            (crate::compare::psnr(&pov_img, &converged), crate::compare::psnr(&pov_img, &read("lancer-bench-aa.png")?));
+        let lancer_s = rows["lancer_adaptive"]["render_s"].as_f64().unwrap_or(f64::NAN);
+        println!("{:<40} {trace:>10.3} {:>13} {db:>12.1}", "POV-Ray +A0.3 +AM1 +R3 -J (trace time)", "-");
+        println!(
+            "POV-Ray's trace time / Lancer's adaptive render: {:.2}x; Lancer adaptive against POV-Ray's image: {same:.1} dB",
+            trace / lancer_s
+        );
+        rows.insert(
+            "povray".into(),
+            serde_json::json!({ "trace_s": trace, "psnr_vs_64spp_db": db, "psnr_vs_lancer_adaptive_db": same, "ratio": trace / lancer_s }),
+        );
+    } else {
+        println!(
+            "POV-Ray is not installed, so its +A0.3 +R3 row was skipped: `apt-get install -y povray` (Debian) enables it."
+        );
+    }
+    json.insert("adaptive".into(), rows.into());
+    Ok(())
 }
 
 /// The smallest of `v` (infinity for none).
@@ -394,14 +479,15 @@ pub fn run(args: &[String]) -> Result<()> {
         let (mut json, mut targets) = (serde_json::Map::new(), Vec::new());
         match only {
             "web" => web_rows(&lancer, runs, &mut json, &mut targets),
+            "aa" => aa_rows(&lancer, runs, povray_installed(), &mut json)?,
             "embree" => {
                 let dir = std::env::temp_dir().join("lancer-bench-scenes");
                 std::fs::create_dir_all(&dir)?;
                 embree_rows(&lancer, &dir, runs, &mut json, &mut targets);
             }
             _ => bail!(
-                "--only takes `web` (the browser build against native renders of the anchor) or `embree` (the \
-                 1M-triangle field against Embree 3)"
+                "--only takes `web` (the browser build against native renders of the anchor), `embree` (the \
+                 1M-triangle field against Embree 3) or `aa` (adaptive anti-aliasing against POV-Ray's and 9 samples)"
             ),
         }
         print_targets(&targets);
@@ -585,6 +671,8 @@ pub fn run(args: &[String]) -> Result<()> {
         bound: 20.0,
         at_most: true,
     });
+
+    aa_rows(&lancer, runs, has_pov, &mut json)?;
 
     println!("\nScaling with the object count (a grid of spheres over a floor, 640x360, 2 threads, median of {runs})");
     println!("{:>8} {:>12} {:>12} {:>14}", "spheres", "render (s)", "M rays", "ns per ray");

@@ -112,21 +112,19 @@ fn compare(lancer: &Path, povray: &Path, scene: &Path, width: Option<&str>, extr
     if pov_img.dimensions() != (w, h) {
         bail!("POV-Ray wrote {:?}, Lancer {w}x{h}", pov_img.dimensions());
     }
-    let (mut sum, mut visible) = (0.0f64, 0usize);
+    let mut visible = 0usize;
     let mut diff = image::RgbImage::new(w, h);
     for ((a, b), d) in lancer_img.pixels().zip(pov_img.pixels()).zip(diff.pixels_mut()) {
         let mut worst = 0u8;
         for c in 0..3 {
             let e = a.0[c].abs_diff(b.0[c]);
-            sum += (e as f64).powi(2);
             worst = worst.max(e);
             d.0[c] = e.saturating_mul(4);
         }
         visible += usize::from(worst > VISIBLE);
     }
     diff.save(out.join("difference.png"))?;
-    let mse = sum / (3.0 * (w * h) as f64);
-    let psnr = if mse > 0.0 { 10.0 * (255.0f64 * 255.0 / mse).log10() } else { f64::INFINITY };
+    let psnr = psnr(&lancer_img, &pov_img);
     let share = visible as f64 / (w * h) as f64;
     let notes: Vec<String> =
         exported.lines().filter_map(|l| l.strip_prefix("warning: POV-Ray: ")).map(str::to_owned).collect();
@@ -165,4 +163,12 @@ fn antialias_of(pov_text: &str) -> Vec<String> {
         .map(str::to_owned)
         .collect();
     if flags.is_empty() { vec!["-A".to_owned()] } else { flags }
+}
+
+/// The PSNR in dB of two 8-bit images of the same size, over every channel of every pixel
+/// (infinite when they are the same).
+pub fn psnr(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
+    let sum: f64 = a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| (x.abs_diff(*y) as f64).powi(2)).sum();
+    let mse = sum / a.as_raw().len().max(1) as f64;
+    if mse > 0.0 { 10.0 * (255.0f64 * 255.0 / mse).log10() } else { f64::INFINITY }
 }

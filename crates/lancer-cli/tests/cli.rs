@@ -427,6 +427,37 @@ fn the_summary_line_shows_the_effective_model() {
 }
 
 #[test]
+fn samples_take_adaptive_anti_aliasing_and_bad_values_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let glass = scene("glass.toml");
+    let o = lancer(
+        dir.path(),
+        &["render", &glass, "--width", "48", "--samples", "adaptive:depth=2", "-o", "aa.png", "--stats-json", "s.json"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("max_depth 5; adaptive samples (threshold 0.3, depth 2)"), "{}", stderr(&o));
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("s.json")).unwrap()).unwrap();
+    let supersampled = doc["adaptive"]["supersampled_pixels"].as_u64().unwrap();
+    // Every pixel once; each tile's one-pixel border within the image once more (48 x 27 is two
+    // bands of one tile each, 16 and 11 rows: the row under the first and the row above the
+    // second); and 2 x 2 + 1 for each pixel supersampled.
+    let border = 2 * 48;
+    assert_eq!(doc["rays"]["camera"].as_u64().unwrap(), 48 * 27 + border + 5 * supersampled);
+    assert!(supersampled > 0);
+    for (bad, says) in [
+        ("adaptive:threshold=4", "adaptive threshold: expected a number from 0 to 3, found `4`"),
+        ("adaptive:depth=0", "adaptive depth: expected a whole number from 1 to 16, found `0`"),
+        ("adaptive:size=2", "adaptive has no parameter `size`; it takes threshold and depth"),
+        ("0", "expected a whole number of samples per pixel from 1 to 4096"),
+    ] {
+        let o = lancer(dir.path(), &["render", &glass, "--width", "48", "--samples", bad, "-o", "bad.png"]);
+        assert_eq!(o.status.code(), Some(2), "{bad}");
+        assert!(stderr(&o).contains(says), "{bad}: {}", stderr(&o));
+        assert!(!dir.path().join("bad.png").exists());
+    }
+}
+
+#[test]
 fn regression_aov_images_of_an_earlier_render_with_other_terms_are_removed() {
     let dir = tempfile::tempdir().unwrap();
     let run = |terms: &str| {
