@@ -51,12 +51,14 @@ fn supersampled(first: &[Vec3], w: usize, h: usize, threshold: f32) -> Vec<bool>
 fn a_supersampled_pixel_is_the_mean_of_its_centre_and_its_grid_the_others_keep_their_one_sample() {
     // A render three times as wide and high at one sample has its pixel centres exactly where
     // a depth-3 grid puts its samples: pixel (3x + i, 3y + j) is at (x + (i + ½)/3, y + (j + ½)/3).
-    let (w, h, threshold) = (48usize, 27usize, 0.1);
+    // 80 wide: two tiles to a band (64 and 16 pixels), three bands (16, 16 and 13 rows), so the
+    // rule is checked across tile boundaries both ways.
+    let (w, h, threshold) = (80usize, 45usize, 0.1);
     let path = "scenes/showcase.toml";
     let one = render(&one_sample(path), Some(w as u32), 1);
     let big = render(&one_sample(path), Some(3 * w as u32), 2);
     let aa = render(&adaptive(path, threshold, 3), Some(w as u32), 2);
-    assert_eq!((one.width, one.height, big.width, big.height), (48, 27, 144, 81));
+    assert_eq!((one.width, one.height, big.width, big.height), (80, 45, 240, 135));
     let chosen = supersampled(&one.beauty, w, h, threshold);
     let count = chosen.iter().filter(|&&c| c).count();
     assert_eq!(aa.stats.supersampled, count as u64);

@@ -118,7 +118,8 @@ pub(crate) struct SceneArgs {
     /// Anti-aliasing, overriding the scene's: N samples per pixel (1 to 4096), or
     /// `adaptive[:threshold=T][:depth=D]` (POV-Ray's `+AT +RD`): each pixel once at its centre,
     /// then D x D more samples (and the centre again) where it differs from a neighbour by T or
-    /// more (0 to 3, summed over R, G, B as a PNG stores them; 0.3 and 3 unless given).
+    /// more (T from 0 to 3, summed over R, G, B as a PNG stores them; D from 2 to 9; 0.3 and 3
+    /// unless given).
     #[arg(long, value_name = "N|adaptive:threshold=T:depth=D", value_parser = parse_samples)]
     pub(crate) samples: Option<Samples>,
     /// Largest file (scene, model, mesh or texture) Lancer will read, in MB.
@@ -605,10 +606,10 @@ pub enum Samples {
 impl Samples {
     /// Sets the image's sampling to this (the scene's is replaced, adaptive or not).
     pub fn apply(self, image: &mut lancer_core::ImageSettings) {
-        (image.samples, image.adaptive) = match self {
-            Samples::Uniform(n) => (n, None),
-            Samples::Adaptive(a) => (1, Some(a)),
-        };
+        match self {
+            Samples::Uniform(n) => image.set_samples(n),
+            Samples::Adaptive(a) => image.set_adaptive(a),
+        }
     }
 }
 
@@ -635,10 +636,13 @@ pub fn parse_samples(text: &str) -> std::result::Result<Samples, String> {
                 _ => return Err(format!("adaptive threshold: expected a number from 0 to 3, found `{value}`")),
             },
             "depth" => match value.trim().parse::<u32>() {
-                Ok(d) if (1..=lancer_core::Adaptive::MAX_DEPTH).contains(&d) => adaptive.depth = d,
+                Ok(d) if (lancer_core::Adaptive::MIN_DEPTH..=lancer_core::Adaptive::MAX_DEPTH).contains(&d) => {
+                    adaptive.depth = d
+                }
                 _ => {
                     return Err(format!(
-                        "adaptive depth: expected a whole number from 1 to {}, found `{value}`",
+                        "adaptive depth: expected a whole number from {} to {}, found `{value}`",
+                        lancer_core::Adaptive::MIN_DEPTH,
                         lancer_core::Adaptive::MAX_DEPTH
                     ));
                 }

@@ -154,7 +154,7 @@ pub fn apply(
     resize(&mut image, settings.width, settings.height);
     if let Some(s) = settings.samples {
         // Samples given: every pixel that many, in place of the scene's adaptive sampling.
-        (image.samples, image.adaptive) = (s, None);
+        image.set_samples(s);
     }
     check_pixels(&image)?;
     Ok((pipeline, image))

@@ -86,12 +86,14 @@ impl Run<'_> {
         if let Some(a) = self.image.adaptive {
             let _ = writeln!(
                 out,
-                "Supersampled: {:>7} pixels ({:.1} %) at {} samples each (threshold {}, depth {})",
+                "Supersampled: {:>7} pixels ({:.1} %) at {} samples each (threshold {}, depth {}); \
+                 {} camera rays traced again around the tiles",
                 s.supersampled,
                 100.0 * s.supersampled as f64 / pixels.max(1) as f64,
                 a.samples(),
                 a.threshold,
-                a.depth
+                a.depth,
+                s.border_rays
             );
         }
         let _ = writeln!(out, "{line}");
@@ -147,6 +149,7 @@ impl Run<'_> {
                 threshold: a.threshold,
                 depth: a.depth,
                 supersampled_pixels: s.supersampled,
+                border_rays: s.border_rays,
             }),
             model: Model {
                 summary: effective_model(p, img),
@@ -189,6 +192,7 @@ struct Adaptive {
     threshold: f32,
     depth: u32,
     supersampled_pixels: u64,
+    border_rays: u64,
 }
 
 /// What `Doc::generator` says: a manifest of Lancer's, whose `files` Lancer may remove.

@@ -446,7 +446,7 @@ fn samples_take_adaptive_anti_aliasing_and_bad_values_write_nothing() {
     assert!(supersampled > 0);
     for (bad, says) in [
         ("adaptive:threshold=4", "adaptive threshold: expected a number from 0 to 3, found `4`"),
-        ("adaptive:depth=0", "adaptive depth: expected a whole number from 1 to 16, found `0`"),
+        ("adaptive:depth=1", "adaptive depth: expected a whole number from 2 to 9, found `1`"),
         ("adaptive:size=2", "adaptive has no parameter `size`; it takes threshold and depth"),
         ("0", "expected a whole number of samples per pixel from 1 to 4096"),
     ] {

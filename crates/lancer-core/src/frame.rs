@@ -37,6 +37,9 @@ pub struct RenderStats {
     pub max_level: u8,
     /// Pixels supersampled by adaptive anti-aliasing ([`crate::Adaptive`]).
     pub supersampled: u64,
+    /// Of the camera rays, those adaptive anti-aliasing traced again for the pixels around a
+    /// tile (the neighbours its pixels are compared with).
+    pub border_rays: u64,
     /// Time spent in each system, summed over threads (zero unless the render was asked to
     /// time itself).
     pub times: SystemTimes,
@@ -92,6 +95,7 @@ impl std::ops::AddAssign for RenderStats {
         add_each(&mut self.spawned, &o.spawned);
         self.max_level = self.max_level.max(o.max_level);
         self.supersampled += o.supersampled;
+        self.border_rays += o.border_rays;
         let (t, u) = (&mut self.times, &o.times);
         t.camera += u.camera;
         t.trace += u.trace;

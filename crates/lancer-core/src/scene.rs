@@ -69,6 +69,18 @@ impl Default for ImageSettings {
     }
 }
 
+impl ImageSettings {
+    /// Every pixel `samples` samples: adaptive anti-aliasing, if the image had it, is off.
+    pub fn set_samples(&mut self, samples: u32) {
+        (self.samples, self.adaptive) = (samples, None);
+    }
+
+    /// Adaptive anti-aliasing (its first pass is one sample a pixel).
+    pub fn set_adaptive(&mut self, adaptive: Adaptive) {
+        (self.samples, self.adaptive) = (1, Some(adaptive));
+    }
+}
+
 /// Adaptive anti-aliasing, as POV-Ray's method 1 (`+A<threshold> +R<depth>`): every pixel is
 /// first traced once, at its centre; a pixel whose first value differs from one of its four
 /// neighbours' by `threshold` or more is traced again at its centre and at the centres of a
@@ -79,13 +91,16 @@ impl Default for ImageSettings {
 pub struct Adaptive {
     /// The difference from which a pixel is supersampled, in [0, 3].
     pub threshold: f32,
-    /// The side of the grid of samples of a supersampled pixel, from 1 to [`Adaptive::MAX_DEPTH`].
+    /// The side of the grid of samples of a supersampled pixel, from [`Adaptive::MIN_DEPTH`] to
+    /// [`Adaptive::MAX_DEPTH`].
     pub depth: u32,
 }
 
 impl Adaptive {
-    /// Largest grid side: 16 (257 samples a pixel).
-    pub const MAX_DEPTH: u32 = 16;
+    /// Smallest grid side: 2 (a grid of one cell would be the centre again).
+    pub const MIN_DEPTH: u32 = 2;
+    /// Largest grid side: 9, as POV-Ray's `+R` (82 samples a pixel).
+    pub const MAX_DEPTH: u32 = 9;
 
     /// The samples of a supersampled pixel: its centre and the grid's.
     pub fn samples(self) -> u32 {

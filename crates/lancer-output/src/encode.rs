@@ -31,7 +31,7 @@ type Result<T> = std::result::Result<T, EncodeError>;
 pub use lancer_core::srgb::srgb_encode;
 use lancer_core::srgb::srgb8;
 
-/// 8-bit sRGB pixels of a linear image, row-major RGB: [`srgb8_of`] for every channel, by its
+/// 8-bit sRGB pixels of a linear image, row-major RGB: [`srgb8`] for every channel, by its
 /// thresholds (a bucket of the float's bits, then one comparison) instead of a power per
 /// channel: the same bytes.
 pub fn to_srgb8(pixels: &[Vec3]) -> Vec<u8> {

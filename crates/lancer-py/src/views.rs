@@ -495,8 +495,16 @@ impl Image {
     #[setter]
     fn set_samples(&self, py: Python<'_>, v: i64) -> PyResult<()> {
         let v = side("samples", v, 4096)?;
-        scene_mut(&self.scene, py)?.doc.scene.image.samples = v;
+        // Every pixel that many: the scene's adaptive anti-aliasing, if it had it, is off.
+        scene_mut(&self.scene, py)?.doc.scene.image.set_samples(v);
         Ok(())
+    }
+
+    /// The scene's adaptive anti-aliasing as `(threshold, depth)`, or `None`; setting
+    /// `samples` turns it off.
+    #[getter]
+    fn adaptive(&self, py: Python<'_>) -> PyResult<Option<(f32, u32)>> {
+        Ok(scene_ref(&self.scene, py)?.doc.scene.image.adaptive.map(|a| (a.threshold, a.depth)))
     }
 
     /// What rays that hit nothing see, linear RGB.
@@ -514,11 +522,14 @@ impl Image {
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let samples = match self.adaptive(py)? {
+            Some((threshold, depth)) => format!("adaptive samples (threshold {threshold}, depth {depth})"),
+            None => format!("{} samples", self.samples(py)?),
+        };
         Ok(format!(
-            "<lancer.Image {}x{}, {} samples, background {:?}>",
+            "<lancer.Image {}x{}, {samples}, background {:?}>",
             self.width(py)?,
             self.height(py)?,
-            self.samples(py)?,
             self.background(py)?
         ))
     }

@@ -222,3 +222,16 @@ def test_reading_the_scene_while_it_renders_raises_instead_of_panicking():
     scene.render(width=32, terms="ambient,py_peek", threads=1)
     assert seen and all("rendering" in m for m in seen)
     assert scene.materials["red"].shine == pytest.approx(0.95)
+
+
+def test_adaptive_anti_aliasing_is_the_command_lines_and_samples_turn_it_off(tmp_path):
+    text = SHOWCASE.read_text().replace("[image]\n", "[image]\nsamples = { adaptive = 0.3, depth = 3 }\n", 1)
+    (tmp_path / "aa.toml").write_text(text)
+    run_cli("render", tmp_path / "aa.toml", "--width", 96, "-o", tmp_path / "cli.exr", "--quiet")
+    scene = lancer.load(tmp_path / "aa.toml")
+    assert scene.image.adaptive == (pytest.approx(0.3), 3)
+    assert "adaptive samples (threshold 0.3, depth 3)" in repr(scene.image)
+    scene.render(width=96).save(tmp_path / "py.exr")
+    assert (tmp_path / "py.exr").read_bytes() == (tmp_path / "cli.exr").read_bytes()
+    scene.image.samples = 2
+    assert scene.image.adaptive is None and scene.image.samples == 2

@@ -413,21 +413,18 @@ pub fn load_scene_within(
         }
     };
     errors.or(())?;
-    let image = ImageSettings {
+    let mut image = ImageSettings {
         width: doc.image.width,
         height: doc.image.height,
         background: Vec3::from(doc.image.background),
-        samples: match doc.image.samples {
-            crate::doc::SamplesDoc::Uniform(n) => n,
-            crate::doc::SamplesDoc::Adaptive(_) => 1,
-        },
-        adaptive: match doc.image.samples {
-            crate::doc::SamplesDoc::Uniform(_) => None,
-            crate::doc::SamplesDoc::Adaptive(a) => {
-                Some(lancer_core::Adaptive { threshold: a.adaptive, depth: a.depth })
-            }
-        },
+        ..Default::default()
     };
+    match doc.image.samples {
+        crate::doc::SamplesDoc::Uniform(n) => image.set_samples(n),
+        crate::doc::SamplesDoc::Adaptive(a) => {
+            image.set_adaptive(lancer_core::Adaptive { threshold: a.adaptive, depth: a.depth })
+        }
+    }
     for key in doc.materials.keys().filter(|n| !used.contains(n.get_ref().as_str())) {
         // At the table's header (`[materials.NAME]`) or the dotted key (`materials.NAME = ...`)
         // when it is written so, else at the name.

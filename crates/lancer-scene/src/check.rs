@@ -90,10 +90,15 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
     let camera_rays = image.width as f64 * image.height as f64 * image.samples.max(1) as f64;
     let estimate = camera_rays * (1.0 + prepared.lights.len() as f64);
     if estimate > COSTLY_RAYS {
+        // Adaptive anti-aliasing traces one sample a pixel first, and more at the edges.
+        let edges = match image.adaptive {
+            Some(a) => format!(", and up to {} more a pixel where adaptive anti-aliasing supersamples", a.samples()),
+            None => String::new(),
+        };
         out.push(Warning {
             place: None,
             message: format!(
-                "this render traces at least {:.0} M rays ({}x{} pixels x {} samples, each with {} shadow ray(s)): \
+                "this render traces at least {:.0} M rays ({}x{} pixels x {} samples, each with {} shadow ray(s){edges}): \
                  about {:.0} thread-minutes at 10 M rays per thread-second; lower --samples or the size to try it first",
                 estimate / 1e6,
                 image.width,

@@ -177,7 +177,7 @@ fn threshold<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
 }
 
 fn grid<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    one(d, 1, lancer_core::Adaptive::MAX_DEPTH)
+    one(d, lancer_core::Adaptive::MIN_DEPTH, lancer_core::Adaptive::MAX_DEPTH)
 }
 
 fn d_three() -> u32 {

@@ -820,7 +820,9 @@ fn samples_take_a_count_or_adaptive_anti_aliasing_and_bad_ones_are_located() {
     assert_eq!(loaded("{ adaptive = 0 }").adaptive.map(|a| a.depth), Some(3));
     for (samples, at, says) in [
         ("{ adaptive = 3.5 }", "3.5", "expected a number in [0, 3], found 3.5"),
-        ("{ adaptive = 0.3, depth = 17 }", "17", "expected a whole number in [1, 16], found 17"),
+        ("{ adaptive = 0.3, depth = 10 }", "10", "expected a whole number in [2, 9], found 10"),
+        ("{ adaptive = 0.3, depth = 1 }", "1 }", "expected a whole number in [2, 9], found 1"),
+        ("{ adaptive = nan }", "nan", "expected a finite number, found NaN"),
         ("{ adaptive = 0.3, deep = 2 }", "deep", "unknown field `deep`, expected `adaptive` or `depth`"),
         ("{ depth = 2 }", "{ depth", "missing field `adaptive`"),
         ("0", "0\n", "expected a whole number in [1, 4096], found 0"),

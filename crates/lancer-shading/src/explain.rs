@@ -112,7 +112,8 @@ pub struct TermNode {
     pub notes: Vec<Note>,
 }
 
-/// Renders pixel (`x`, `y`) of the image alone and explains it. The pixel's values are the
+/// Renders pixel (`x`, `y`) of the image alone and explains it (panics for a pixel outside the
+/// image: callers check it first, with their own message). The pixel's values are the
 /// same, to the bit, as in a render of the whole frame with the same settings. `camera` is in
 /// world space, as for [`crate::render_prepared`]; so are the explanation's points.
 pub fn explain_pixel(
@@ -123,6 +124,7 @@ pub fn explain_pixel(
     x: u32,
     y: u32,
 ) -> PixelExplanation {
+    assert!(x < image.width && y < image.height, "pixel {x},{y} is outside the {}x{} image", image.width, image.height);
     let ctx = shade_context(prepared, pipeline);
     let lit = crate::render::lit_materials(&ctx, pipeline);
     let mut scratch = Scratch::new(pipeline);

@@ -20,7 +20,8 @@ pub const TILE: u32 = 16;
 /// rays. Measured on the anchor (one thread): 16 wide 0.268 s, 64 wide 0.262 s, 128 no better.
 pub const TILE_WIDTH: u32 = 64;
 
-// A tile's camera rays at one sample per pixel make one chunk.
+// A tile's camera rays at one sample per pixel make one chunk (with adaptive anti-aliasing's
+// one-pixel border, 66 x 18 rays, two).
 const _: () = assert!((TILE_WIDTH * TILE) as usize <= CHUNK_LANES);
 
 /// Side of the square cells a tile's camera rays go through one after the other: a block of
@@ -542,8 +543,11 @@ fn adaptive_tile(
     let (dx, dy) = (tile.x0 - x0, tile.y0 - y0);
     let order = cell_order_of(&mut scratch.border_order, border);
     scratch.clear_accum(border);
+    let before = stats.camera_rays;
     pass.trace(border, Shots { pixels: &order, spp: 1, pattern: Pattern::Uniform }, scratch, None, stats);
+    stats.border_rays += stats.camera_rays - before - (tile.w * tile.h) as u64;
     scratch.border_order.0 = order;
+    let mut lap = Lap::new(pass.timing);
     // The first values (the layers' sum, as the beauty image is made) and as they are compared,
     // then the tile's own
     // pixels' layers moved to the tile's rows (each row moves towards the front, never over a
@@ -582,10 +586,12 @@ fn adaptive_tile(
     scratch.order.0 = order;
     (scratch.first, scratch.shown) = (first, shown);
     stats.supersampled += refined.len() as u64;
+    lap.charge(&mut stats.times.chunks);
     let shots = Shots { pixels: &refined, spp: adaptive.samples() as usize, pattern: Pattern::Adaptive(adaptive) };
     if recorder.is_some() && refined.is_empty() {
         // Explaining a pixel that keeps its first value: its one ray again, recorded (the same
-        // ray of the same weight, so the same bits).
+        // ray of the same weight, so the same bits). An explained pixel is a tile of its own.
+        debug_assert!(tile.w == 1 && tile.h == 1);
         let centre = [(0, 0)];
         scratch.zero_pixels(tile, &centre);
         pass.trace(tile, Shots { pixels: &centre, spp: 1, pattern: Pattern::Uniform }, scratch, recorder, stats);

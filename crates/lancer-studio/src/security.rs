@@ -393,7 +393,7 @@ async fn explain(Axum(g): Axum<Guard>, Query(p): Query<Pixel>, body: String) -> 
         Err(e) => return e.into_response(),
     };
     let result = tokio::task::spawn_blocking(move || -> Result<String, String> {
-        let (mut prepared, camera, mut image, name, objects, materials) = {
+        let (mut prepared, camera, image, name, objects, materials) = {
             let slot = lock(&shared.slot);
             let materials: Vec<String> = slot.loaded.materials.iter().map(|m| m.label.clone()).collect();
             (slot.prepared.clone(), slot.camera, slot.image, slot.name.clone(), slot.objects.clone(), materials)
@@ -402,7 +402,9 @@ async fn explain(Axum(g): Axum<Guard>, Query(p): Query<Pixel>, body: String) -> 
             return Err(format!("pixel {},{} is outside the {}x{} image", p.x, p.y, image.width, image.height));
         }
         let pipeline = state.apply(&mut prepared, &shared.registry)?;
-        image.samples = state.model.samples;
+        // The full image's settings, as the render shown (the scene's adaptive sampling kept
+        // while the samples are the scene's).
+        let image = crate::state::image_for(&image, &state, false);
         let e = lancer_shading::explain_pixel(&prepared, &camera, &image, &pipeline, p.x, p.y);
         let report = lancer_output::Report {
             scene: &name,

@@ -247,14 +247,13 @@ impl State {
 /// scene's; samples set in the studio are every pixel's.
 pub fn image_for(base: &lancer_core::ImageSettings, state: &State, coarse: bool) -> lancer_core::ImageSettings {
     let mut image = *base;
-    image.samples = state.model.samples;
-    if image.samples != base.samples {
-        image.adaptive = None;
+    if state.model.samples != base.samples {
+        image.set_samples(state.model.samples);
     }
     if coarse {
         image.width = (image.width / 4).max(1);
         image.height = (image.height / 4).max(1);
-        (image.samples, image.adaptive) = (1, None);
+        image.set_samples(1);
     }
     image
 }
