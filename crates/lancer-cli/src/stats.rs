@@ -86,11 +86,12 @@ impl Run<'_> {
         if let Some(a) = self.image.adaptive {
             let _ = writeln!(
                 out,
-                "Supersampled: {:>7} pixels ({:.1} %) at {} samples each (threshold {}, depth {}); \
+                "Supersampled: {:>7} pixels ({:.1} %) at {} samples ({} rays) each (threshold {}, depth {}); \
                  {} camera rays traced again around the tiles",
                 s.supersampled,
                 100.0 * s.supersampled as f64 / pixels.max(1) as f64,
                 a.samples(),
+                a.rays(),
                 a.threshold,
                 a.depth,
                 s.border_rays

@@ -102,19 +102,36 @@ impl Adaptive {
     /// Largest grid side: 9, as POV-Ray's `+R` (82 samples a pixel).
     pub const MAX_DEPTH: u32 = 9;
 
-    /// The samples of a supersampled pixel: its centre and the grid's.
+    /// The samples a supersampled pixel's value is the mean of: its centre and the grid's
+    /// cells (for an odd depth the middle cell is the centre again, which so counts twice).
     pub fn samples(self) -> u32 {
         self.depth * self.depth + 1
     }
 
-    /// Sub-pixel position of sample `s` of a supersampled pixel: sample 0 at the centre, then
-    /// the grid's cell centres row by row.
+    /// The camera rays of a supersampled pixel: [`Adaptive::samples`], less the middle cell of
+    /// an odd depth's grid, whose ray would be the centre's again (the centre's ray counts for
+    /// both).
+    pub fn rays(self) -> u32 {
+        self.samples() - self.depth % 2
+    }
+
+    /// Sub-pixel position of ray `s` of a supersampled pixel: ray 0 at the centre, then the
+    /// grid's cell centres row by row (for an odd depth, but the middle one).
     pub fn offset(self, s: u32) -> (f32, f32) {
         if s == 0 {
             return (0.5, 0.5);
         }
-        let (k, r) = (s - 1, self.depth.max(1));
+        let r = self.depth.max(1);
+        let middle = if r % 2 == 1 { (r * r) / 2 } else { u32::MAX };
+        let k = if s - 1 >= middle { s } else { s - 1 };
         (((k % r) as f32 + 0.5) / r as f32, ((k / r) as f32 + 0.5) / r as f32)
+    }
+
+    /// The weight of ray `s` of a supersampled pixel: `1 / samples`, twice that for the centre's
+    /// ray of an odd depth (it stands for the middle cell too).
+    pub fn weight(self, s: u32) -> f32 {
+        let one = 1.0 / self.samples() as f32;
+        if s == 0 && self.depth % 2 == 1 { 2.0 * one } else { one }
     }
 
     /// A pixel's value as it is compared: the bytes a PNG stores for it ([`crate::srgb8`]).
@@ -154,4 +171,34 @@ pub struct Scene {
     pub meta: Meta,
     /// Images used by `Pattern::Image` materials.
     pub textures: Vec<crate::Texture>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Adaptive;
+
+    #[test]
+    fn a_supersampled_pixel_has_the_centre_and_every_grid_cell_with_weights_that_sum_to_one() {
+        for depth in Adaptive::MIN_DEPTH..=Adaptive::MAX_DEPTH {
+            let a = Adaptive { threshold: 0.3, depth };
+            let rays: Vec<(f32, f32)> = (0..a.rays()).map(|s| a.offset(s)).collect();
+            // The cells' centres, and the pixel's centre once more, as the rays stand for them.
+            let mut stood_for: Vec<(f32, f32)> = rays.clone();
+            if depth % 2 == 1 {
+                stood_for.push((0.5, 0.5));
+            }
+            let mut cells: Vec<(f32, f32)> = (0..depth * depth)
+                .map(|k| (((k % depth) as f32 + 0.5) / depth as f32, ((k / depth) as f32 + 0.5) / depth as f32))
+                .collect();
+            cells.push((0.5, 0.5));
+            let key = |v: &mut Vec<(f32, f32)>| v.sort_by(|p, q| p.partial_cmp(q).unwrap());
+            key(&mut stood_for);
+            key(&mut cells);
+            assert_eq!(stood_for, cells, "depth {depth}");
+            assert_eq!(a.rays() as usize, rays.len());
+            let total: f32 = (0..a.rays()).map(|s| a.weight(s)).sum();
+            assert!((total - 1.0).abs() < 1e-5, "depth {depth}: weights sum to {total}");
+            assert_eq!(rays[0], (0.5, 0.5));
+        }
+    }
 }

@@ -71,8 +71,7 @@ impl Report<'_> {
         }
     }
 
-    /// The pixel's samples: its camera rays (with adaptive anti-aliasing, 1 or the
-    /// supersampled pixel's).
+    /// The pixel's camera rays (with adaptive anti-aliasing, 1 or the supersampled pixel's).
     fn samples(&self) -> usize {
         self.explanation.rays.iter().filter(|r| r.parent.is_none()).count()
     }
@@ -95,7 +94,8 @@ impl Report<'_> {
                 a.threshold,
                 a.depth,
                 if samples > 1 {
-                    format!("supersampled, {samples} samples")
+                    let twice = if a.depth % 2 == 1 { ", the centre's counting twice" } else { "" };
+                    format!("supersampled, the mean of {} samples in {samples} rays{twice}", a.samples())
                 } else {
                     "not supersampled, 1 sample".to_owned()
                 }
@@ -341,7 +341,7 @@ struct JsonDoc<'a> {
     pixel: [u32; 2],
     width: u32,
     height: u32,
-    /// The pixel's samples (with adaptive anti-aliasing, 1 or the supersampled pixel's).
+    /// The pixel's camera rays (with adaptive anti-aliasing, 1 or the supersampled pixel's).
     samples: u32,
     #[serde(skip_serializing_if = "Option::is_none")]
     adaptive: Option<JsonAdaptive>,

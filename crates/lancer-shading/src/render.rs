@@ -587,7 +587,7 @@ fn adaptive_tile(
     (scratch.first, scratch.shown) = (first, shown);
     stats.supersampled += refined.len() as u64;
     lap.charge(&mut stats.times.chunks);
-    let shots = Shots { pixels: &refined, spp: adaptive.samples() as usize, pattern: Pattern::Adaptive(adaptive) };
+    let shots = Shots { pixels: &refined, spp: adaptive.rays() as usize, pattern: Pattern::Adaptive(adaptive) };
     if recorder.is_some() && refined.is_empty() {
         // Explaining a pixel that keeps its first value: its one ray again, recorded (the same
         // ray of the same weight, so the same bits). An explained pixel is a tile of its own.
@@ -621,8 +621,8 @@ enum Pattern {
     Adaptive(lancer_core::Adaptive),
 }
 
-/// The camera rays of one pass: `spp` samples of each of `pixels` (tile-local, in this order),
-/// each of weight `1 / spp`.
+/// The camera rays of one pass: `spp` rays for each of `pixels` (tile-local, in this order),
+/// each of weight `1 / spp` ([`Pattern::Uniform`]) or as [`lancer_core::Adaptive::weight`] says.
 struct Shots<'a> {
     pixels: &'a [(u32, u32)],
     spp: usize,
@@ -634,6 +634,13 @@ impl Shots<'_> {
         match self.pattern {
             Pattern::Uniform => sample_offset(s, self.spp as u32),
             Pattern::Adaptive(a) => a.offset(s),
+        }
+    }
+
+    fn weight(&self, s: u32) -> f32 {
+        match self.pattern {
+            Pattern::Uniform => 1.0 / self.spp as f32,
+            Pattern::Adaptive(a) => a.weight(s),
         }
     }
 }
@@ -715,8 +722,8 @@ impl Pass<'_, '_> {
     }
 }
 
-/// Generation 0: the camera rays of `shots`' samples `range` (pixel-major), each of weight
-/// `1 / shots.spp`; with `reference`, each direction by itself ([`Camera::direction`]).
+/// Generation 0: the camera rays of `shots`' samples `range` (pixel-major), each of its weight
+/// ([`Shots::weight`]); with `reference`, each direction by itself ([`Camera::direction`]).
 fn camera_system(
     camera: &Camera,
     image: &ImageSettings,
@@ -726,7 +733,6 @@ fn camera_system(
     reference: bool,
     out: &mut Rays,
 ) {
-    let weight = Vec3::splat(1.0 / shots.spp as f32);
     // Eight rays at a time; the columns start empty, so each eight fill a packet.
     assert!(out.is_empty(), "camera rays go into empty columns");
     // The pixel and sample of lane `range.start`, then one sample after another.
@@ -735,9 +741,11 @@ fn camera_system(
     for start in range.clone().step_by(PACKET) {
         let lanes = (range.end - start).min(PACKET);
         let (mut px, mut py, mut pixels) = ([0.0f32; PACKET], [0.0f32; PACKET], [0u32; PACKET]);
+        let mut weight = [0.0f32; PACKET];
         for j in 0..lanes {
             let (i, row) = shots.pixels[at];
             let (ox, oy) = shots.offset(s as u32);
+            weight[j] = shots.weight(s as u32);
             (px[j], py[j], pixels[j]) = ((tile.x0 + i) as f32 + ox, (tile.y0 + row) as f32 + oy, row * tile.w + i);
             s += 1;
             if s == spp {
@@ -757,7 +765,7 @@ fn camera_system(
         let splat = |v: Vec3| v.to_array().map(|c| [c; PACKET]);
         out.dir.push_packet(&dirs, lanes);
         out.origin.push_packet(&splat(camera.origin.as_vec3()), lanes);
-        out.weight.push_packet(&splat(weight), lanes);
+        out.weight.push_packet(&[weight; 3], lanes);
         out.skip.extend_from_slice(&[NO_SKIP; PACKET][..lanes]);
         out.pixel.extend_from_slice(&pixels[..lanes]);
         out.depth.extend_from_slice(&[0; PACKET][..lanes]);
