@@ -123,7 +123,7 @@ impl Adaptive {
         }
         let r = self.depth.max(1);
         let middle = if r % 2 == 1 { (r * r) / 2 } else { u32::MAX };
-        let k = if s - 1 >= middle { s } else { s - 1 };
+        let k = if s > middle { s } else { s - 1 };
         (((k % r) as f32 + 0.5) / r as f32, ((k / r) as f32 + 0.5) / r as f32)
     }
 
