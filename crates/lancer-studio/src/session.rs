@@ -111,6 +111,7 @@ impl Session {
             "scene": self.name,
             "width": self.image.width,
             "height": self.image.height,
+            "adaptive": crate::state::adaptive_json(&self.image),
             "warnings": self.warnings,
             "can_save": false,
             "file": self.name.rsplit('/').next().unwrap_or(&self.name),
@@ -250,5 +251,22 @@ mod tests {
         assert!(text.contains("[materials.red]\ncolor = [1, 0.2, 0.1]\nshine = 0.75\n"), "{text}");
         assert_eq!(s.hello()["state"]["materials"][0]["label"], "red");
         assert_eq!(s.hello()["objects"][0], "object 1 (sphere, s.toml:11)");
+    }
+
+    #[test]
+    fn a_scene_with_adaptive_anti_aliasing_keeps_it_until_the_samples_change() {
+        let s =
+            load(&SCENE.replace("height = 30\n", "height = 30\nsamples = { adaptive = 0.2, depth = 2 }\n")).unwrap();
+        assert_eq!(s.hello()["adaptive"]["depth"], 2);
+        assert_eq!(load(SCENE).unwrap().hello()["adaptive"], serde_json::Value::Null);
+        let mut state = s.loaded.clone();
+        let aa = lancer_core::Adaptive { threshold: 0.2, depth: 2 };
+        assert_eq!(s.image(&state, false).adaptive, Some(aa));
+        // The coarse image is one sample a pixel; another number of samples is every pixel's.
+        assert_eq!((s.image(&state, true).adaptive, s.image(&state, true).samples), (None, 1));
+        state.model.samples = 4;
+        assert_eq!((s.image(&state, false).adaptive, s.image(&state, false).samples), (None, 4));
+        let frame = s.render(&s.loaded, false, None).unwrap();
+        assert!(frame.stats.supersampled > 0);
     }
 }

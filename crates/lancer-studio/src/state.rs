@@ -258,6 +258,12 @@ pub fn image_for(base: &lancer_core::ImageSettings, state: &State, coarse: bool)
     image
 }
 
+/// The scene's adaptive anti-aliasing as the page's hello says it: `{threshold, depth}`, or
+/// null (every pixel the model's samples).
+pub fn adaptive_json(image: &lancer_core::ImageSettings) -> Value {
+    image.adaptive.map_or(Value::Null, |a| serde_json::json!({ "threshold": a.threshold, "depth": a.depth }))
+}
+
 /// The world position, rounded to f32, of the point `at` of a prepared frame whose origin is
 /// `origin`.
 fn world(origin: glam::DVec3, at: Vec3) -> Vec3 {

@@ -261,12 +261,13 @@ impl Shared {
 
     /// The message a page gets on connecting and after a reload.
     pub(crate) fn hello(&self) -> String {
-        let (scene, width, height, warnings, can_save, file, objects, file_state) = {
+        let (scene, width, height, adaptive, warnings, can_save, file, objects, file_state) = {
             let slot = lock(&self.slot);
             (
                 slot.name.clone(),
                 slot.image.width,
                 slot.image.height,
+                crate::state::adaptive_json(&slot.image),
                 slot.warnings.clone(),
                 self.allow_save && !self.read_only && slot.path.is_some(),
                 slot.path.as_ref().and_then(|p| p.file_name()).map(|n| n.to_string_lossy().into_owned()),
@@ -279,6 +280,7 @@ impl Shared {
             "scene": scene,
             "width": width,
             "height": height,
+            "adaptive": adaptive,
             "warnings": warnings,
             "can_save": can_save,
             "read_only": self.read_only,

@@ -68,6 +68,7 @@ function serverEngine() {
 function status(text) { $("status").textContent = text; }
 
 let fileState = null; // the state as the file has it (for "reset to the file")
+let adaptive = null; // the scene's adaptive anti-aliasing ({threshold, depth}), kept while the samples are the file's
 let objectLabels = []; // each object as the file names it: `object 3 (sphere, glass.toml:45)`
 
 function message(m) {
@@ -76,6 +77,7 @@ function message(m) {
     state = m.state;
     fileState = JSON.parse(JSON.stringify(m.file_state ?? m.state));
     objectLabels = m.objects || [];
+    adaptive = m.adaptive || null;
     width = m.width; height = m.height;
     $("scene").textContent = `${m.scene} · ${m.width}×${m.height}`;
     $("error").hidden = true;
@@ -540,8 +542,17 @@ function buildModel() {
   const depth = el("input", { type: "number", min: 0, max: 64, value: model.max_depth });
   depth.addEventListener("input", () => { const v = parseInt(depth.value); if (v >= 0 && v <= 64) { model.max_depth = v; changed(); } });
   const samples = el("input", { type: "number", min: 1, max: 256, value: model.samples });
-  samples.addEventListener("input", () => { const v = parseInt(samples.value); if (v >= 1 && v <= 256) { model.samples = v; changed(); } });
-  box.push(shadows, el("div", { className: "row" }, el("label", { textContent: "max_depth" }), depth, el("span")), el("div", { className: "row" }, el("label", { textContent: "samples" }), samples, el("span")));
+  // The scene's adaptive anti-aliasing holds while the samples are the file's (the server and
+  // the browser engine both render it so); another number gives every pixel that many.
+  const aa = el("p", { className: "formula" });
+  const showAdaptive = () => {
+    const on = adaptive && fileState && model.samples === fileState.model.samples;
+    aa.hidden = !on;
+    aa.textContent = on ? `adaptive anti-aliasing (threshold ${adaptive.threshold}, depth ${adaptive.depth}): the scene's; another number of samples gives every pixel that many` : "";
+  };
+  showAdaptive();
+  samples.addEventListener("input", () => { const v = parseInt(samples.value); if (v >= 1 && v <= 256) { model.samples = v; showAdaptive(); changed(); } });
+  box.push(shadows, el("div", { className: "row" }, el("label", { textContent: "max_depth" }), depth, el("span")), el("div", { className: "row" }, el("label", { textContent: "samples" }), samples, el("span")), aa);
   $("model").replaceChildren(...box);
 }
 
