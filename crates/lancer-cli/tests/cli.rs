@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod common;
-use common::{files, lancer, stderr};
+use common::{files, lancer, stderr, stdout};
 
 fn scene(name: &str) -> String {
     let p: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "scenes", name].iter().collect();
@@ -443,7 +443,29 @@ fn samples_take_adaptive_anti_aliasing_and_bad_values_write_nothing() {
     // second); and 2 x 2 + 1 for each pixel supersampled.
     let border = 2 * 48;
     assert_eq!(doc["rays"]["camera"].as_u64().unwrap(), 48 * 27 + border + 5 * supersampled);
+    assert_eq!(doc["adaptive"]["border_rays"].as_u64().unwrap(), border);
     assert!(supersampled > 0);
+    // Depth 3: nine rays a supersampled pixel (the centre's stands for the middle cell too), and
+    // `explain` says so.
+    let o = lancer(
+        dir.path(),
+        &["render", &glass, "--width", "48", "--samples", "adaptive", "-q", "-o", "aa3.png", "--stats-json", "s3.json"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("s3.json")).unwrap()).unwrap();
+    let supersampled = doc["adaptive"]["supersampled_pixels"].as_u64().unwrap();
+    assert_eq!(doc["rays"]["camera"].as_u64().unwrap(), 48 * 27 + border + 9 * supersampled);
+    let o = lancer(
+        dir.path(),
+        &["explain", &glass, "--width", "48", "--samples", "adaptive:threshold=0", "--pixel", "20,10"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o)
+            .contains("adaptive anti-aliasing (threshold 0, depth 3): supersampled, the mean of 10 samples in 9 rays"),
+        "{}",
+        stdout(&o)
+    );
     for (bad, says) in [
         ("adaptive:threshold=4", "adaptive threshold: expected a number from 0 to 3, found `4`"),
         ("adaptive:depth=1", "adaptive depth: expected a whole number from 2 to 9, found `1`"),

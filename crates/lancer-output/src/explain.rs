@@ -248,7 +248,11 @@ impl Report<'_> {
             pixel: [e.x, e.y],
             width: self.image.width,
             height: self.image.height,
-            samples: self.samples() as u32,
+            samples: match self.image.adaptive {
+                Some(a) if self.samples() > 1 => a.samples(),
+                _ => self.samples() as u32,
+            },
+            camera_rays: self.samples() as u32,
             adaptive: self.image.adaptive.map(|a| JsonAdaptive { threshold: a.threshold, depth: a.depth }),
             model: JsonModel {
                 terms: self
@@ -341,8 +345,11 @@ struct JsonDoc<'a> {
     pixel: [u32; 2],
     width: u32,
     height: u32,
-    /// The pixel's camera rays (with adaptive anti-aliasing, 1 or the supersampled pixel's).
+    /// The samples the pixel's value is the mean of (with adaptive anti-aliasing, 1 or the
+    /// supersampled pixel's).
     samples: u32,
+    /// Its camera rays (an odd depth's centre ray stands for two samples).
+    camera_rays: u32,
     #[serde(skip_serializing_if = "Option::is_none")]
     adaptive: Option<JsonAdaptive>,
     model: JsonModel<'a>,

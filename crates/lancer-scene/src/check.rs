@@ -92,7 +92,7 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
     if estimate > COSTLY_RAYS {
         // Adaptive anti-aliasing traces one sample a pixel first, and more at the edges.
         let edges = match image.adaptive {
-            Some(a) => format!(", and up to {} more a pixel where adaptive anti-aliasing supersamples", a.samples()),
+            Some(a) => format!(", and up to {} more a pixel where adaptive anti-aliasing supersamples", a.rays()),
             None => String::new(),
         };
         out.push(Warning {

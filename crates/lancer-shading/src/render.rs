@@ -526,8 +526,8 @@ fn cell_order_of(kept: &mut (Vec<(u32, u32)>, (u32, u32)), tile: Tile) -> Vec<(u
 /// it is in, so which pixels are supersampled does not depend on the tiles (nor on the
 /// threads, the parts or [`crate::explain_pixel`], which renders a pixel alone). The tile's own
 /// pixels keep their first values, layer by layer; those that differ from a neighbour by the
-/// threshold or more are traced again, `depth² + 1` samples each of weight `1 / (depth² + 1)`,
-/// and these replace them. Every layer is made so, and the beauty image is still their sum.
+/// threshold or more are traced again, [`lancer_core::Adaptive::rays`] rays each of the weight
+/// [`lancer_core::Adaptive::weight`] gives, and these replace them. Every layer is made so, and the beauty image is still their sum.
 fn adaptive_tile(
     pass: &Pass<'_, '_>,
     tile: Tile,

@@ -257,7 +257,7 @@ mod tests {
     fn a_scene_with_adaptive_anti_aliasing_keeps_it_until_the_samples_change() {
         let s =
             load(&SCENE.replace("height = 30\n", "height = 30\nsamples = { adaptive = 0.2, depth = 2 }\n")).unwrap();
-        assert_eq!(s.hello()["adaptive"]["depth"], 2);
+        assert_eq!(s.hello()["adaptive"], serde_json::json!({ "threshold": 0.2, "depth": 2 }));
         assert_eq!(load(SCENE).unwrap().hello()["adaptive"], serde_json::Value::Null);
         let mut state = s.loaded.clone();
         let aa = lancer_core::Adaptive { threshold: 0.2, depth: 2 };

@@ -261,7 +261,9 @@ pub fn image_for(base: &lancer_core::ImageSettings, state: &State, coarse: bool)
 /// The scene's adaptive anti-aliasing as the page's hello says it: `{threshold, depth}`, or
 /// null (every pixel the model's samples).
 pub fn adaptive_json(image: &lancer_core::ImageSettings) -> Value {
-    image.adaptive.map_or(Value::Null, |a| serde_json::json!({ "threshold": a.threshold, "depth": a.depth }))
+    // The threshold as the file writes it (0.3, not the f32's 0.30000001192092896).
+    let shortest = |t: f32| t.to_string().parse::<f64>().unwrap_or(f64::from(t));
+    image.adaptive.map_or(Value::Null, |a| serde_json::json!({ "threshold": shortest(a.threshold), "depth": a.depth }))
 }
 
 /// The world position, rounded to f32, of the point `at` of a prepared frame whose origin is
