@@ -619,20 +619,21 @@ pub fn parse_samples(text: &str) -> std::result::Result<Samples, String> {
     let head = parts.next().unwrap_or_default().trim();
     if head != "adaptive" {
         return match head.parse::<u32>() {
-            Ok(n) if (1..=4096).contains(&n) && text.trim() == head => Ok(Samples::Uniform(n)),
+            Ok(n) if (1..=lancer_scene::MAX_SAMPLES).contains(&n) && text.trim() == head => Ok(Samples::Uniform(n)),
             _ => Err(format!(
-                "expected a whole number of samples per pixel from 1 to 4096, or adaptive[:threshold=T][:depth=D], found `{text}`"
+                "expected a whole number of samples per pixel from 1 to {}, or adaptive[:threshold=T][:depth=D], found `{text}`",
+                lancer_scene::MAX_SAMPLES
             )),
         };
     }
-    let mut adaptive = lancer_core::Adaptive { threshold: 0.3, depth: 3 };
+    let mut adaptive = lancer_core::Adaptive::DEFAULT;
     for part in parts {
         let (key, value) = part
             .split_once('=')
             .ok_or_else(|| format!("`{part}`: give adaptive's parameters as KEY=VALUE, e.g. threshold=0.3"))?;
         match key.trim() {
             "threshold" => match value.trim().parse::<f32>() {
-                Ok(t) if (0.0..=3.0).contains(&t) => adaptive.threshold = t,
+                Ok(t) if (0.0..=lancer_core::Adaptive::MAX_THRESHOLD).contains(&t) => adaptive.threshold = t,
                 _ => return Err(format!("adaptive threshold: expected a number from 0 to 3, found `{value}`")),
             },
             "depth" => match value.trim().parse::<u32>() {

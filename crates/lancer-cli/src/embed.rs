@@ -111,7 +111,7 @@ impl Settings {
         };
         within("width", self.width, 16384)?;
         within("height", self.height, 16384)?;
-        within("samples", self.samples, 4096)?;
+        within("samples", self.samples, lancer_scene::MAX_SAMPLES)?;
         if let Some(d) = self.max_depth.filter(|d| *d > 64) {
             bail!("max_depth {d} is not in 0..=64");
         }

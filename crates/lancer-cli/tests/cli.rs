@@ -430,13 +430,19 @@ fn the_summary_line_shows_the_effective_model() {
 fn samples_take_adaptive_anti_aliasing_and_bad_values_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let glass = scene("glass.toml");
-    let o = lancer(
-        dir.path(),
-        &["render", &glass, "--width", "48", "--samples", "adaptive:depth=2", "-o", "aa.png", "--stats-json", "s.json"],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("max_depth 5; adaptive samples (threshold 0.3, depth 2)"), "{}", stderr(&o));
-    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("s.json")).unwrap()).unwrap();
+    // The glass scene 48 wide with `--samples SAMPLES`: its summary line and `--stats-json`.
+    let render = |samples: &str| {
+        let o = lancer(
+            dir.path(),
+            &["render", &glass, "--width", "48", "--samples", samples, "-o", "aa.png", "--stats-json", "s.json"],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let doc: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("s.json")).unwrap()).unwrap();
+        (stderr(&o), doc)
+    };
+    let (summary, doc) = render("adaptive:depth=2");
+    assert!(summary.contains("max_depth 5; adaptive samples (threshold 0.3, depth 2)"), "{summary}");
     let supersampled = doc["adaptive"]["supersampled_pixels"].as_u64().unwrap();
     // Every pixel once; each tile's one-pixel border within the image once more (48 x 27 is two
     // bands of one tile each, 16 and 11 rows: the row under the first and the row above the
@@ -447,12 +453,7 @@ fn samples_take_adaptive_anti_aliasing_and_bad_values_write_nothing() {
     assert!(supersampled > 0);
     // Depth 3: nine rays a supersampled pixel (the centre's stands for the middle cell too), and
     // `explain` says so.
-    let o = lancer(
-        dir.path(),
-        &["render", &glass, "--width", "48", "--samples", "adaptive", "-q", "-o", "aa3.png", "--stats-json", "s3.json"],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("s3.json")).unwrap()).unwrap();
+    let (_, doc) = render("adaptive");
     let supersampled = doc["adaptive"]["supersampled_pixels"].as_u64().unwrap();
     assert_eq!(doc["rays"]["camera"].as_u64().unwrap(), 48 * 27 + border + 9 * supersampled);
     let o = lancer(

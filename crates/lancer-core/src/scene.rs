@@ -101,6 +101,11 @@ impl Adaptive {
     pub const MIN_DEPTH: u32 = 2;
     /// Largest grid side: 9, as POV-Ray's `+R` (82 samples a pixel).
     pub const MAX_DEPTH: u32 = 9;
+    /// Largest threshold: 3, black beside white.
+    pub const MAX_THRESHOLD: f32 = 3.0;
+    /// POV-Ray's usual `+A0.3 +R3`: what `--samples adaptive` and a scene's table take unless
+    /// told otherwise.
+    pub const DEFAULT: Adaptive = Adaptive { threshold: 0.3, depth: 3 };
 
     /// The samples a supersampled pixel's value is the mean of: its centre and the grid's
     /// cells (for an odd depth the middle cell is the centre again, which so counts twice).

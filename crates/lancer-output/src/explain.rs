@@ -72,7 +72,7 @@ impl Report<'_> {
     }
 
     /// The pixel's camera rays (with adaptive anti-aliasing, 1 or the supersampled pixel's).
-    fn samples(&self) -> usize {
+    fn camera_rays(&self) -> usize {
         self.explanation.rays.iter().filter(|r| r.parent.is_none()).count()
     }
 
@@ -87,20 +87,20 @@ impl Report<'_> {
         let p = self.pipeline;
         let mut out = String::new();
         let model: Vec<String> = p.terms.iter().map(|t| format!("{}:{}", t.name, t.variant)).collect();
-        let samples = self.samples();
+        let rays = self.camera_rays();
         let sampling = match self.image.adaptive {
             Some(a) => format!(
                 "adaptive anti-aliasing (threshold {}, depth {}): {}",
                 a.threshold,
                 a.depth,
-                if samples > 1 {
+                if rays > 1 {
                     let twice = if a.depth % 2 == 1 { ", the centre's counting twice" } else { "" };
-                    format!("supersampled, the mean of {} samples in {samples} rays{twice}", a.samples())
+                    format!("supersampled, the mean of {} samples in {rays} rays{twice}", a.samples())
                 } else {
                     "not supersampled, 1 sample".to_owned()
                 }
             ),
-            None => format!("{samples} sample{}", if samples > 1 { "s" } else { "" }),
+            None => format!("{rays} sample{}", if rays > 1 { "s" } else { "" }),
         };
         let _ = writeln!(
             out,
@@ -138,7 +138,7 @@ impl Report<'_> {
             Some(name) => format!(", counts in the {name} image"),
             None => String::new(),
         };
-        let sample = if self.samples() > 1 { format!(" (sample {})", ray.sample) } else { String::new() };
+        let sample = if self.camera_rays() > 1 { format!(" (sample {})", ray.sample) } else { String::new() };
         let _ = writeln!(
             out,
             "{pad}{} ray{sample}, generation {}: from {} u = {}, weight {}{credit}",
@@ -249,10 +249,10 @@ impl Report<'_> {
             width: self.image.width,
             height: self.image.height,
             samples: match self.image.adaptive {
-                Some(a) if self.samples() > 1 => a.samples(),
-                _ => self.samples() as u32,
+                Some(a) if self.camera_rays() > 1 => a.samples(),
+                _ => self.camera_rays() as u32,
             },
-            camera_rays: self.samples() as u32,
+            camera_rays: self.camera_rays() as u32,
             adaptive: self.image.adaptive.map(|a| JsonAdaptive { threshold: a.threshold, depth: a.depth }),
             model: JsonModel {
                 terms: self

@@ -173,7 +173,7 @@ pub struct AdaptiveDoc {
 }
 
 fn threshold<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    ranged(d, 0.0, 3.0)
+    ranged(d, 0.0, lancer_core::Adaptive::MAX_THRESHOLD)
 }
 
 fn grid<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
@@ -181,7 +181,7 @@ fn grid<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 }
 
 fn d_three() -> u32 {
-    3
+    lancer_core::Adaptive::DEFAULT.depth
 }
 
 impl<'de> Deserialize<'de> for SamplesDoc {

@@ -16,7 +16,7 @@ pub use build::{
 };
 pub use check::check;
 /// The largest colour channel and light intensity a scene may give (what edits are held to too).
-pub use doc::{MAX_CHANNEL, MAX_LIGHT};
+pub use doc::{MAX_CHANNEL, MAX_LIGHT, MAX_SAMPLES};
 pub use error::{LoadError, LoadErrorKind, Place, Warning};
 pub use texture::MAX_TEXTURE_PIXELS;
 

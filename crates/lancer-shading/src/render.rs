@@ -527,7 +527,8 @@ fn cell_order_of(kept: &mut (Vec<(u32, u32)>, (u32, u32)), tile: Tile) -> Vec<(u
 /// threads, the parts or [`crate::explain_pixel`], which renders a pixel alone). The tile's own
 /// pixels keep their first values, layer by layer; those that differ from a neighbour by the
 /// threshold or more are traced again, [`lancer_core::Adaptive::rays`] rays each of the weight
-/// [`lancer_core::Adaptive::weight`] gives, and these replace them. Every layer is made so, and the beauty image is still their sum.
+/// [`lancer_core::Adaptive::weight`] gives, and these replace them. Every layer is made so, and
+/// the beauty image is still their sum.
 fn adaptive_tile(
     pass: &Pass<'_, '_>,
     tile: Tile,
@@ -549,9 +550,8 @@ fn adaptive_tile(
     scratch.border_order.0 = order;
     let mut lap = Lap::new(pass.timing);
     // The first values (the layers' sum, as the beauty image is made) and as they are compared,
-    // then the tile's own
-    // pixels' layers moved to the tile's rows (each row moves towards the front, never over a
-    // row still to move).
+    // then the tile's own pixels' layers moved to the tile's rows (each row moves towards the
+    // front, never over a row still to move).
     let mut first = std::mem::take(&mut scratch.first);
     first.clear();
     first.resize((border.w * border.h) as usize, Vec3::ZERO);
@@ -636,13 +636,6 @@ impl Shots<'_> {
             Pattern::Adaptive(a) => a.offset(s),
         }
     }
-
-    fn weight(&self, s: u32) -> f32 {
-        match self.pattern {
-            Pattern::Uniform => 1.0 / self.spp as f32,
-            Pattern::Adaptive(a) => a.weight(s),
-        }
-    }
 }
 
 impl Pass<'_, '_> {
@@ -722,8 +715,9 @@ impl Pass<'_, '_> {
     }
 }
 
-/// Generation 0: the camera rays of `shots`' samples `range` (pixel-major), each of its weight
-/// ([`Shots::weight`]); with `reference`, each direction by itself ([`Camera::direction`]).
+/// Generation 0: the camera rays of `shots`' samples `range` (pixel-major), each of weight
+/// `1 / spp` or [`lancer_core::Adaptive::weight`]; with `reference`, each direction by itself
+/// ([`Camera::direction`]).
 fn camera_system(
     camera: &Camera,
     image: &ImageSettings,
@@ -737,6 +731,7 @@ fn camera_system(
     assert!(out.is_empty(), "camera rays go into empty columns");
     // The pixel and sample of lane `range.start`, then one sample after another.
     let spp = shots.spp;
+    let even = 1.0 / spp as f32;
     let (mut at, mut s) = (range.start / spp, range.start % spp);
     for start in range.clone().step_by(PACKET) {
         let lanes = (range.end - start).min(PACKET);
@@ -745,7 +740,10 @@ fn camera_system(
         for j in 0..lanes {
             let (i, row) = shots.pixels[at];
             let (ox, oy) = shots.offset(s as u32);
-            weight[j] = shots.weight(s as u32);
+            weight[j] = match shots.pattern {
+                Pattern::Uniform => even,
+                Pattern::Adaptive(a) => a.weight(s as u32),
+            };
             (px[j], py[j], pixels[j]) = ((tile.x0 + i) as f32 + ox, (tile.y0 + row) as f32 + oy, row * tile.w + i);
             s += 1;
             if s == spp {
