@@ -14,6 +14,72 @@ pub const CREDIT_OWN: u16 = u16::MAX;
 /// `Hits::object` of a lane whose ray hit nothing.
 pub const NO_HIT: u32 = u32::MAX;
 
+/// The transparent objects a ray is inside, innermost last: what `refraction:traced` reads to
+/// know the index on each side of a surface (POV-Ray keeps the same list per ray). A camera
+/// ray is in none; a refracted ray's list is its parent's with the object it enters added or the
+/// one it leaves taken off; every other child ray (a reflection, a total internal reflection)
+/// keeps its parent's. Up to [`Media::DEPTH`] nested objects are remembered: entering one more
+/// forgets the outermost.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Media {
+    /// Object indices, innermost first; [`Media::NONE`] past the last.
+    inside: [u32; Media::DEPTH],
+}
+
+impl Default for Media {
+    fn default() -> Media {
+        Media::AIR
+    }
+}
+
+impl Media {
+    /// How many nested objects a ray remembers being inside.
+    pub const DEPTH: usize = 3;
+    /// An unused slot.
+    const NONE: u32 = u32::MAX;
+    /// Inside nothing: the ray travels in air (index 1).
+    pub const AIR: Media = Media { inside: [Media::NONE; Media::DEPTH] };
+
+    /// The innermost object the ray is inside, if any.
+    #[inline]
+    pub fn innermost(self) -> Option<u32> {
+        (self.inside[0] != Media::NONE).then_some(self.inside[0])
+    }
+
+    /// Whether the ray is inside `object`.
+    #[inline]
+    pub fn contains(self, object: u32) -> bool {
+        object != Media::NONE && self.inside.contains(&object)
+    }
+
+    /// The objects, innermost first.
+    pub fn iter(self) -> impl Iterator<Item = u32> {
+        self.inside.into_iter().take_while(|&o| o != Media::NONE)
+    }
+
+    /// These media with `object` entered (innermost now); the outermost is forgotten when
+    /// [`Media::DEPTH`] are already remembered.
+    #[inline]
+    #[must_use]
+    pub fn entering(self, object: u32) -> Media {
+        let mut inside = [Media::NONE; Media::DEPTH];
+        inside[0] = object;
+        inside[1..].copy_from_slice(&self.inside[..Media::DEPTH - 1]);
+        Media { inside }
+    }
+
+    /// These media with `object` left (taken off wherever it is in the list).
+    #[inline]
+    #[must_use]
+    pub fn leaving(self, object: u32) -> Media {
+        let mut inside = [Media::NONE; Media::DEPTH];
+        for (slot, o) in inside.iter_mut().zip(self.iter().filter(|&o| o != object)) {
+            *slot = o;
+        }
+        Media { inside }
+    }
+}
+
 /// Lanes per [`Packet`]: eight, one SIMD group.
 pub const PACKET: usize = 8;
 
@@ -169,6 +235,8 @@ pub struct Rays {
     pub depth: Vec<u8>,
     /// Which image (layer index) receives this ray's contributions; [`CREDIT_OWN`] for camera rays.
     pub credit: Vec<u16>,
+    /// The transparent objects the ray is inside ([`Media`]).
+    pub media: Vec<Media>,
 }
 
 impl Rays {
@@ -194,6 +262,7 @@ impl Rays {
             pixel: Vec::with_capacity(n),
             depth: Vec::with_capacity(n),
             credit: Vec::with_capacity(n),
+            media: Vec::with_capacity(n),
         }
     }
 
@@ -206,6 +275,7 @@ impl Rays {
         self.pixel.clear();
         self.depth.clear();
         self.credit.clear();
+        self.media.clear();
     }
 
     /// Replaces the lanes with `src`'s lanes `range`, reusing this chunk's capacity.
@@ -217,13 +287,24 @@ impl Rays {
         self.weight.extend_from(&src.weight, range.clone());
         self.pixel.extend_from_slice(&src.pixel[range.clone()]);
         self.depth.extend_from_slice(&src.depth[range.clone()]);
-        self.credit.extend_from_slice(&src.credit[range]);
+        self.credit.extend_from_slice(&src.credit[range.clone()]);
+        self.media.extend_from_slice(&src.media[range]);
     }
 
     /// Appends one lane.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub fn push(&mut self, origin: Vec3, skip: u32, dir: Vec3, weight: Vec3, pixel: u32, depth: u8, credit: u16) {
+    pub fn push(
+        &mut self,
+        origin: Vec3,
+        skip: u32,
+        dir: Vec3,
+        weight: Vec3,
+        pixel: u32,
+        depth: u8,
+        credit: u16,
+        media: Media,
+    ) {
         // The three vector columns are as long as each other: where the lane goes is worked out
         // once for all three.
         let len = self.origin.len;
@@ -243,6 +324,7 @@ impl Rays {
         self.pixel.push(pixel);
         self.depth.push(depth);
         self.credit.push(credit);
+        self.media.push(media);
     }
 }
 
@@ -360,7 +442,7 @@ impl LightSamples {
 
 #[cfg(test)]
 mod tests {
-    use super::{PACKET, Vec3, Vec3s};
+    use super::{Media, PACKET, Vec3, Vec3s};
 
     fn lane(i: usize) -> Vec3 {
         Vec3::new(i as f32, -(i as f32), 0.5 * i as f32)
@@ -373,7 +455,7 @@ mod tests {
         let (mut origin, mut dir, mut weight) = (Vec3s::default(), Vec3s::default(), Vec3s::default());
         for i in 0..27u32 {
             let v = |k: f32| Vec3::new(i as f32 + k, -(i as f32) * k, 0.5 * k);
-            rays.push(v(1.0), i, v(2.0), v(3.0), i * 7, (i % 5) as u8, i as u16);
+            rays.push(v(1.0), i, v(2.0), v(3.0), i * 7, (i % 5) as u8, i as u16, Media::AIR.entering(i));
             origin.push(v(1.0));
             dir.push(v(2.0));
             weight.push(v(3.0));
@@ -382,6 +464,23 @@ mod tests {
         assert_eq!((rays.dir.packets(), rays.dir.len()), (dir.packets(), dir.len()));
         assert_eq!((rays.weight.packets(), rays.weight.len()), (weight.packets(), weight.len()));
         assert_eq!((rays.skip[26], rays.pixel[26], rays.depth[26], rays.credit[26]), (26, 182, 1, 26));
+        assert_eq!(rays.media[26].innermost(), Some(26));
+    }
+
+    #[test]
+    fn media_enter_innermost_first_leave_from_anywhere_and_forget_the_outermost() {
+        let m = Media::AIR.entering(4).entering(7);
+        assert_eq!((m.innermost(), m.iter().collect::<Vec<_>>()), (Some(7), vec![7, 4]));
+        assert!(m.contains(4) && m.contains(7) && !m.contains(5));
+        // Leaving the outer one of two (overlapping objects) keeps the inner one.
+        assert_eq!(m.leaving(4).iter().collect::<Vec<_>>(), vec![7]);
+        assert_eq!(m.leaving(7).leaving(4), Media::AIR);
+        // Leaving an object the ray is not inside changes nothing.
+        assert_eq!(m.leaving(9), m);
+        // A fourth level forgets the first object entered.
+        let deep = m.entering(1).entering(2);
+        assert_eq!(deep.iter().collect::<Vec<_>>(), vec![2, 1, 7]);
+        assert_eq!((Media::AIR.innermost(), Media::AIR.contains(u32::MAX)), (None, false));
     }
     #[test]
     fn lanes_keep_their_vectors_across_packets_whatever_the_way_in() {

@@ -768,6 +768,7 @@ fn camera_system(
         out.pixel.extend_from_slice(&pixels[..lanes]);
         out.depth.extend_from_slice(&[0; PACKET][..lanes]);
         out.credit.extend_from_slice(&[CREDIT_OWN; PACKET][..lanes]);
+        out.media.extend_from_slice(&[lancer_core::rays::Media::AIR; PACKET][..lanes]);
     }
 }
 

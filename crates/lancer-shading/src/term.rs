@@ -1,7 +1,7 @@
 //! The `Term` trait: an illumination term is a system run over every ray chunk of a generation.
 
 use glam::Vec3;
-use lancer_core::rays::{CREDIT_OWN, Hits, LightSamples, NO_HIT, Rays};
+use lancer_core::rays::{CREDIT_OWN, Hits, LightSamples, Media, NO_HIT, Rays};
 use lancer_core::{Light, Material, Texture};
 use lancer_shapes::{Geometry, Hit, Origin};
 
@@ -177,7 +177,8 @@ impl TermOutput<'_> {
         let weight = self.weighted(base, factor);
         for j in crate::lanes::set(bits) {
             let from = Origin { point: lancer_core::rays::lane(origin, j), skip: skip[j] };
-            self.queue(base + j, from, crate::lanes::lane(dir, j), crate::lanes::lane(&weight, j));
+            let lane = base + j;
+            self.queue(lane, from, crate::lanes::lane(dir, j), crate::lanes::lane(&weight, j), self.rays.media[lane]);
         }
     }
 
@@ -191,14 +192,21 @@ impl TermOutput<'_> {
     /// `factor` times in the parent's. Does nothing past the depth limit or for a zero factor.
     #[inline(always)]
     pub fn spawn(&mut self, lane: usize, origin: Origin, dir: Vec3, factor: Vec3) {
+        self.spawn_in(lane, origin, dir, factor, self.rays.media[lane]);
+    }
+
+    /// [`TermOutput::spawn`] for a ray that crosses a surface into other media (the objects it
+    /// is inside, [`lancer_core::rays::Media`]); `spawn`'s rays stay in their parent's.
+    #[inline(always)]
+    pub fn spawn_in(&mut self, lane: usize, origin: Origin, dir: Vec3, factor: Vec3, media: Media) {
         let weight = self.weight * self.rays.weight.at(lane) * factor;
-        self.queue(lane, origin, dir, weight);
+        self.queue(lane, origin, dir, weight, media);
     }
 
     /// Queues a child of `lane` of this `weight` (its factor times the weights), unless past
     /// the depth limit or of zero weight.
     #[inline(always)]
-    fn queue(&mut self, lane: usize, origin: Origin, dir: Vec3, weight: Vec3) {
+    fn queue(&mut self, lane: usize, origin: Origin, dir: Vec3, weight: Vec3, media: Media) {
         if !self.can_spawn(lane) || weight == Vec3::ZERO {
             return;
         }
@@ -211,6 +219,7 @@ impl TermOutput<'_> {
             self.rays.pixel[lane],
             self.rays.depth[lane] + 1,
             credit,
+            media,
         );
     }
 }

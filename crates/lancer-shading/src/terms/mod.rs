@@ -25,6 +25,7 @@ pub const BUILTIN: &[TermSpec] = &[
     mirror::schlick::SPEC,
     refraction::seed::SPEC,
     refraction::fresnel::SPEC,
+    refraction::traced::SPEC,
     specular::exponent_shine::SPEC,
     specular::sign::SPEC,
     diffuse::no_clamp::SPEC,
@@ -40,7 +41,7 @@ pub const BUILTIN: &[TermSpec] = &[
 #[cfg(test)]
 pub(crate) mod probe {
     use glam::Vec3;
-    use lancer_core::rays::{CREDIT_OWN, LightSamples, Rays};
+    use lancer_core::rays::{CREDIT_OWN, LightSamples, Media, Rays};
     use lancer_core::{Light, Material};
     use lancer_shapes::{Geometry, NO_SKIP, Object, Origin};
 
@@ -53,10 +54,11 @@ pub(crate) mod probe {
         pub(crate) added: Vec3,
         /// The children: where each starts, its direction and weight.
         pub(crate) children: Vec<(Vec3, Vec3, Vec3)>,
+        /// The objects each child is inside.
+        pub(crate) media: Vec<Media>,
     }
 
-    /// Runs term `name:variant` on the first hit of the ray from `from` along `dir` (unit) in
-    /// the scene of `objects` (each with its material) lit by `lights`.
+    /// [`run_in`] for a ray in air.
     pub(crate) fn run(
         name: &str,
         variant: &str,
@@ -64,6 +66,21 @@ pub(crate) mod probe {
         lights: &[Light],
         from: Vec3,
         dir: Vec3,
+    ) -> Seen {
+        run_in(name, variant, objects, lights, from, dir, Media::AIR)
+    }
+
+    /// Runs term `name:variant` on the first hit of the ray from `from` along `dir` (unit) in
+    /// the scene of `objects` (each with its material) lit by `lights`, the ray inside the
+    /// objects `media`.
+    pub(crate) fn run_in(
+        name: &str,
+        variant: &str,
+        objects: &[(Object, Material)],
+        lights: &[Light],
+        from: Vec3,
+        dir: Vec3,
+        media: Media,
     ) -> Seen {
         let geometry = Geometry::new(objects.iter().map(|(o, _)| o.clone()).collect());
         let materials: Vec<Material> = objects.iter().map(|(_, m)| *m).collect();
@@ -90,7 +107,7 @@ pub(crate) mod probe {
             }
         }
         let mut rays = Rays::default();
-        rays.push(from, NO_SKIP, dir, Vec3::ONE, 0, 0, CREDIT_OWN);
+        rays.push(from, NO_SKIP, dir, Vec3::ONE, 0, 0, CREDIT_OWN, media);
         let term = Registry::with_builtins().build_term(name, Some(variant), Params::default()).expect("a built-in");
         let (mut accum, mut next) = (vec![vec![Vec3::ZERO]], Rays::default());
         let mut out = TermOutput {
@@ -104,7 +121,7 @@ pub(crate) mod probe {
         };
         term.term.run(&ctx, Chunk { rays: &rays, hits: &hits, lights: &samples }, &mut out);
         let children = (0..next.len()).map(|i| (next.origin.at(i), next.dir.at(i), next.weight.at(i))).collect();
-        Seen { added: accum[0][0], children }
+        Seen { added: accum[0][0], children, media: next.media.clone() }
     }
 
     /// A white point light of intensity 1 at `at`.

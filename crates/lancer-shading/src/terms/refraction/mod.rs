@@ -5,6 +5,7 @@
 //! |---|---|
 //! | `seed` (default, the handout's) | `alpha` |
 //! | `fresnel` | `alpha · (1 − R_in)(1 − R_out)` (+ a reflected ray `alpha · R_in`), optional Beer–Lambert |
+//! | `traced` | `alpha` at every surface crossed: the ray is traced inside, each inner surface shaded |
 //!
 //! Classic mistakes of the course, kept as variants to show them (`lancer terms --mistakes`):
 //! `sign-trap` (`VctTransmis` given the outward normal on entry), `inverted-index` (`n` where
@@ -16,6 +17,7 @@ pub mod inverted_index;
 pub mod no_exit_bend;
 pub mod seed;
 pub mod sign_trap;
+pub mod traced;
 
 use glam::Vec3;
 use lancer_core::optics::{reflect, vct_transmis};
@@ -182,7 +184,7 @@ pub(crate) fn passage_group(
 /// normal when that sends the ray to the right side of the geometric surface (out when
 /// `leaving`, in otherwise), else about the geometric normal: the direction and the normal used.
 /// `None` on total internal reflection.
-fn bend(u: Vec3, at: &Hit, delta: f32, leaving: bool) -> Option<(Vec3, Vec3)> {
+pub(crate) fn bend(u: Vec3, at: &Hit, delta: f32, leaving: bool) -> Option<(Vec3, Vec3)> {
     let right_side = |v: Vec3| (v.dot(at.normal) > 0.0) == leaving;
     let t = vct_transmis(u, if leaving { at.shading } else { -at.shading }, delta)?;
     if right_side(t) {
