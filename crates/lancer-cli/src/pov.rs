@@ -124,6 +124,7 @@ pub fn export(
                 | ("specular", "blinn")
                 | ("mirror", "constant")
                 | ("refraction", "seed")
+                | ("refraction", "traced")
         );
         match t.name.as_str() {
             "ambient" => terms.ambient = true,
@@ -131,7 +132,15 @@ pub fn export(
             "specular" if t.variant == "blinn" => terms.specular = Some(Highlight::Blinn(t.term.as_ref())),
             "specular" => terms.specular = Some(Highlight::Phong),
             "mirror" => terms.mirror = true,
-            "refraction" => terms.refraction = true,
+            "refraction" => {
+                terms.refraction = true;
+                if t.variant == "seed" && prepared.materials.iter().any(|m| m.alpha > 0.0) {
+                    notes.push(
+                        "`refraction:seed` crosses transparent objects unshaded; POV-Ray traces inside them as `refraction:traced` does, so the images differ there"
+                            .into(),
+                    );
+                }
+            }
             other => notes.push(format!("term `{other}` has no POV-Ray counterpart: left out")),
         }
         if !seed && ["ambient", "diffuse", "specular", "mirror", "refraction"].contains(&t.name.as_str()) {

@@ -580,6 +580,12 @@ fn check_warns_about_a_flawed_scene_and_renders_nothing() {
         assert!(out.contains(want), "check says `{want}`:\n{out}");
     }
     assert!(!out.contains("light 2 is inside"), "{out}");
+    assert!(out.contains("(`refraction:traced` traces inside and shows it)"), "{out}");
+    // With the path that traces inside, what reaches into the glass shows: no warning.
+    let o = lancer(dir.path(), &["check", "flawed.toml", "--terms", "ambient,diffuse,refraction:traced"]);
+    let traced = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(o.status.success() && !traced.contains("reaches into"), "{traced}");
+    assert!(traced.contains("the camera is inside object 4"), "the other warnings stay: {traced}");
     // A costly render is said so, with the figure, before it starts.
     let o = lancer(dir.path(), &["check", "--width", "4096", "--samples", "256"]);
     let out = String::from_utf8_lossy(&o.stdout).into_owned();

@@ -56,7 +56,9 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
             });
         }
     }
-    for a in (0..geometry.objects.len()).filter(|&a| material(a).alpha > 0.0) {
+    // `refraction:traced` meets what is inside a transparent object: only the other paths hide it.
+    let hides_inside = pipeline.terms.iter().any(|t| t.name == "refraction" && t.variant != "traced");
+    for a in (0..geometry.objects.len()).filter(|&a| hides_inside && material(a).alpha > 0.0) {
         // Two transparent objects: said once.
         for b in (0..geometry.objects.len()).filter(|&b| b != a && (b > a || material(b).alpha <= 0.0)) {
             if geometry.overlap(a as u32, b as u32) {
@@ -64,7 +66,8 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
                     place: places.objects.get(a).cloned(),
                     message: format!(
                         "transparent {} reaches into {}: the handout's refraction path crosses a transparent object \
-                         without meeting anything inside it, so the part of the other object inside it will not show",
+                         without meeting anything inside it, so the part of the other object inside it will not show \
+                         (`refraction:traced` traces inside and shows it)",
                         object(a),
                         object(b)
                     ),

@@ -7,7 +7,7 @@
 //!
 //! Formula: transmittance = (1/S) Σ_k T(I → L_k), `L_k` the sample points, `T` as `transmissive`.
 //! Reads: `alpha`, `color` of occluders; the light's `size`. Parameters: `samples` (a square
-//! number, default 16), `tint` (default `false`).
+//! number, default 16), `tint` (default `false`), `each_surface` (default `false`).
 //!
 //! ```toml
 //! [model]
@@ -22,7 +22,7 @@ use glam::Vec3;
 use lancer_core::Light;
 use lancer_shapes::Hit;
 
-use super::transmissive::{TINT, through_each, through_occluders, through_occluders_each};
+use super::transmissive::{EACH_SURFACE, Filter, TINT, through_each, through_occluders, through_occluders_each};
 use crate::shadow::BLOCK;
 use crate::{HitBlock, ParamError, ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 
@@ -33,6 +33,7 @@ pub const SPEC: ShadowSpec = ShadowSpec {
     params: &[
         ParamSpec { name: "samples", default: "16", doc: "points sampled on each area light (a square number)" },
         TINT,
+        EACH_SURFACE,
     ],
     build: |p: &mut Params| {
         let samples = p.number("samples", 16.0, 1.0, 4096.0)?;
@@ -43,14 +44,14 @@ pub const SPEC: ShadowSpec = ShadowSpec {
                 message: format!("expected a square number such as 4, 16 or 64, found {samples}"),
             });
         }
-        Ok(Box::new(Soft { side: side as u32, tint: p.boolean(TINT.name, false)? }))
+        Ok(Box::new(Soft { side: side as u32, tint: Filter::from_params(p)? }))
     },
     mistake: None,
 };
 
 struct Soft {
     side: u32,
-    tint: bool,
+    tint: Filter,
 }
 
 /// A 64-bit mix (SplitMix64's finaliser): well-spread bits from any input.
@@ -142,7 +143,7 @@ mod tests {
 
     #[test]
     fn samples_cover_the_square_one_per_cell() {
-        let soft = Soft { side: 4, tint: false };
+        let soft = Soft { side: 4, tint: Filter::default() };
         let light = Light { at: Vec3::new(1.0, 5.0, -2.0), color: Vec3::ONE, intensity: 1.0, size: 2.0 };
         let mut cells = vec![0; 16];
         for cell in 0..16 {

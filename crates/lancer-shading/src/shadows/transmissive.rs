@@ -2,8 +2,14 @@
 //! light multiplies it by its `alpha` (and, with `tint = true`, by its colour); an opaque object
 //! (`alpha = 0`) blocks it. So glass casts a lighter shadow.
 //!
-//! Formula: transmittance = Π over objects crossed of `alpha_k` (× `Col_k` with `tint`).
-//! Reads: `alpha`, `color` of occluders. Parameters: `tint` (default `false`).
+//! Formula: transmittance = Π over objects crossed of `alpha_k` (× `Col_k` with `tint`). A
+//! closed object is crossed from where the ray enters it to where it leaves, meeting nothing
+//! inside it (as the handout's refraction path). With `each_surface = true` the shadow ray is
+//! followed surface by surface as `refraction:traced` follows its rays: Π over surfaces crossed
+//! (`alpha_k²` through a closed object, as POV-Ray's shadows), and an object inside a
+//! transparent one casts its shadow.
+//! Reads: `alpha`, `color` of occluders. Parameters: `tint` (default `false`), `each_surface`
+//! (default `false`).
 //!
 //! ```toml
 //! [model]
@@ -22,8 +28,8 @@ use crate::{ParamSpec, Params, ShadowContext, ShadowModel, ShadowSpec};
 pub const SPEC: ShadowSpec = ShadowSpec {
     name: "transmissive",
     summary: "transparent occluders attenuate the light by their alpha instead of blocking it",
-    params: &[TINT],
-    build: |p: &mut Params| Ok(Box::new(Transmissive { tint: p.boolean(TINT.name, false)? })),
+    params: &[TINT, EACH_SURFACE],
+    build: |p: &mut Params| Ok(Box::new(Transmissive { tint: Filter::from_params(p)? })),
     mistake: None,
 };
 
@@ -31,12 +37,35 @@ pub const SPEC: ShadowSpec = ShadowSpec {
 pub const TINT: ParamSpec =
     ParamSpec { name: "tint", default: "false", doc: "also filter the light by each occluder's colour" };
 
+/// The `each_surface` parameter, shared with the `soft` model.
+pub const EACH_SURFACE: ParamSpec = ParamSpec {
+    name: "each_surface",
+    default: "false",
+    doc: "count alpha at each surface crossed (twice through a closed object, as refraction:traced weighs its rays and POV-Ray its shadows), not once per object",
+};
+
+/// How transparent occluders filter the light: the `tint` and `each_surface` parameters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Filter {
+    /// Also by each occluder's colour.
+    pub tint: bool,
+    /// `alpha` at each surface crossed, not once per object.
+    pub each_surface: bool,
+}
+
+impl Filter {
+    /// The filter the model's parameters ask for.
+    pub fn from_params(p: &mut Params) -> Result<Filter, crate::ParamError> {
+        Ok(Filter { tint: p.boolean(TINT.name, false)?, each_surface: p.boolean(EACH_SURFACE.name, false)? })
+    }
+}
+
 /// More crossings than this on one shadow ray count as fully blocked (a pathological stack of
 /// thin glass); it keeps the loop bounded.
 const MAX_CROSSINGS: usize = 64;
 
 struct Transmissive {
-    tint: bool,
+    tint: Filter,
 }
 
 impl ShadowModel for Transmissive {
@@ -57,7 +86,7 @@ impl ShadowModel for Transmissive {
 /// once, from where the ray enters it to where it leaves ([`lancer_shapes::Geometry::past`], the
 /// same exit query as the refraction path); a surface with no inside (a disk, an open mesh)
 /// counts at each crossing, and the ray goes on beyond it.
-pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, target: Vec3, tint: bool) -> Vec3 {
+pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, target: Vec3, tint: Filter) -> Vec3 {
     onward(ctx, at, target, tint, None)
 }
 
@@ -65,7 +94,7 @@ pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, target: Vec3, tint: 
 /// stretch of every shadow ray traced together ([`ShadowContext::occluders_through`], convex
 /// transparent objects seen through), the rest (past transparent objects, where something else
 /// lies on the ray) one by one. Each hit gets what `through_occluders` gives it alone.
-pub fn through_occluders_each(ctx: &ShadowContext<'_>, block: &HitBlock<'_>, tint: bool, out: &mut [Vec3]) {
+pub fn through_occluders_each(ctx: &ShadowContext<'_>, block: &HitBlock<'_>, tint: Filter, out: &mut [Vec3]) {
     FIRST.with(|cell| match cell.try_borrow_mut() {
         Ok(mut first) => through_block(ctx, block, tint, out, &mut first),
         Err(_) => through_block(ctx, block, tint, out, &mut [None; BLOCK]),
@@ -83,7 +112,7 @@ thread_local! {
 fn through_block(
     ctx: &ShadowContext<'_>,
     block: &HitBlock<'_>,
-    tint: bool,
+    tint: Filter,
     out: &mut [Vec3],
     first: &mut [Crossing; BLOCK],
 ) {
@@ -104,7 +133,7 @@ fn through_block(
     });
     for (i, out) in out.iter_mut().enumerate().take(n) {
         *out = if ahead(i) {
-            settled(ctx, block.origin(i).point, block.dir(i), first[i], tint, blocked[i])
+            settled(ctx, block.origin(i).point, block.dir(i), block.left(i), first[i], tint, blocked[i])
                 .unwrap_or_else(|| onward(ctx, &block.hit(ctx, i), block.target(), tint, Some(first[i])))
         } else {
             Vec3::ONE
@@ -119,7 +148,7 @@ pub(crate) fn through_each(
     ctx: &ShadowContext<'_>,
     hits: &[Hit],
     target: impl Fn(usize) -> Vec3,
-    tint: bool,
+    tint: Filter,
     done: impl FnMut(usize, Option<Vec3>),
 ) {
     SCRATCH.with(|cell| match cell.try_borrow_mut() {
@@ -166,7 +195,7 @@ fn through_blocks(
     ctx: &ShadowContext<'_>,
     hits: &[Hit],
     target: impl Fn(usize) -> Vec3,
-    tint: bool,
+    tint: Filter,
     mut done: impl FnMut(usize, Option<Vec3>),
 ) {
     let Columns { origin, skip, dir, left, goal, ray, first } = c;
@@ -206,7 +235,7 @@ fn through_blocks(
                 Ok(r) => {
                     let (from, d) = (lines.origin(r), lines.dir(r));
                     Some(
-                        settled(ctx, from, d, first[r], tint, blocked[r])
+                        settled(ctx, from, d, left[r], first[r], tint, blocked[r])
                             .unwrap_or_else(|| onward(ctx, at, goal[r], tint, Some(first[r]))),
                     )
                 }
@@ -229,36 +258,57 @@ fn see_through(ctx: &ShadowContext<'_>, object: u32) -> bool {
 /// none when it meets an opaque object first, and the share of a [`see_through`] object it
 /// meets first when nothing else lies on the ray (`!blocked`). `None`: the walk decides.
 #[inline]
-fn settled(ctx: &ShadowContext<'_>, from: Vec3, dir: Vec3, first: Crossing, tint: bool, blocked: bool) -> Option<Vec3> {
+fn settled(
+    ctx: &ShadowContext<'_>,
+    from: Vec3,
+    dir: Vec3,
+    left: f32,
+    first: Crossing,
+    tint: Filter,
+    blocked: bool,
+) -> Option<Vec3> {
     match first {
         None => Some(Vec3::ONE),
         Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Some(Vec3::ZERO),
         Some((object, crossing)) if !blocked && see_through(ctx, object) => {
-            Some(share(ctx, object, from, dir, &crossing, tint))
+            Some(share(ctx, object, from, dir, left, &crossing, tint))
         }
         Some(_) => None,
     }
 }
 
 /// The share of the light a transparent object lets through where the ray from `from` along
-/// `dir` crosses it (`crossing`): its `alpha`, times its colour there with `tint` (a filter
-/// passes at most all the light: a colour above 1 does not amplify it).
+/// `dir` crosses it (`crossing`), the light `left` away: its `alpha`, times its colour there with
+/// `tint` (a filter passes at most all the light: a colour above 1 does not amplify it); squared
+/// with `each_surface` where the ray goes in and out of a closed object before the light.
 #[inline]
 fn share(
     ctx: &ShadowContext<'_>,
     object: u32,
     from: Vec3,
     dir: Vec3,
+    left: f32,
     crossing: &lancer_shapes::ShapeHit,
-    tint: bool,
+    tint: Filter,
 ) -> Vec3 {
-    let m = ctx.material_of(object);
-    if tint {
-        let hit = ctx.geometry.objects[object as usize].hit(object, from, dir, crossing);
-        m.alpha * ctx.color_at(&hit).min(Vec3::ONE)
-    } else {
-        Vec3::splat(m.alpha)
+    if !tint.tint && !tint.each_surface {
+        return Vec3::splat(ctx.material_of(object).alpha);
     }
+    let hit = ctx.geometry.objects[object as usize].hit(object, from, dir, crossing);
+    let once = surface_share(ctx, &hit, tint);
+    // In and out before the light: two surfaces (`past` is the hit itself where the ray
+    // leaves there, or where the object has no inside).
+    let twice = tint.each_surface
+        && ctx.geometry.past(&hit, dir).is_some_and(|p| p.point != hit.point && (p.point - from).dot(dir) < left);
+    if twice { once * once } else { once }
+}
+
+/// The share of the light the transparent surface of `hit` lets through: `alpha`, times the
+/// colour there with `tint` (at most 1).
+#[inline]
+fn surface_share(ctx: &ShadowContext<'_>, hit: &Hit, tint: Filter) -> Vec3 {
+    let alpha = ctx.material_of(hit.object).alpha;
+    if tint.tint { alpha * ctx.color_at(hit).min(Vec3::ONE) } else { Vec3::splat(alpha) }
 }
 
 /// The walk of [`through_occluders`]; `given`: the answer to its first shadow ray when it was
@@ -267,7 +317,7 @@ fn onward(
     ctx: &ShadowContext<'_>,
     at: &Hit,
     target: Vec3,
-    tint: bool,
+    tint: Filter,
     mut given: Option<Option<(u32, lancer_shapes::ShapeHit)>>,
 ) -> Vec3 {
     let mut light = Vec3::ONE;
@@ -293,10 +343,18 @@ fn onward(
         // (The same stretch asked again, past the object: one shadow ray, as a block's stretch
         // traced with the object seen through is.)
         if traced && see_through(ctx, object) && !ctx.geometry.any_hit_without(from, dir, left, object) {
-            return light * share(ctx, object, from.point, dir, &crossing, tint);
+            return light * share(ctx, object, from.point, dir, left, &crossing, tint);
         }
-        light *= share(ctx, object, from.point, dir, &crossing, tint);
         let hit = ctx.geometry.objects[object as usize].hit(object, from.point, dir, &crossing);
+        if tint.each_surface {
+            // Surface by surface, as `refraction:traced`'s rays go: the next stretch starts at
+            // this one, so what lies inside the object is met (an opaque ball inside glass
+            // casts its shadow).
+            light *= surface_share(ctx, &hit, tint);
+            surface = hit;
+            continue;
+        }
+        light *= share(ctx, object, from.point, dir, left, &crossing, tint);
         match ctx.geometry.past(&hit, dir) {
             // Leaving it beyond the light: the light is inside it, and nothing else counts.
             Some(past) if (past.point - from.point).dot(dir) >= left => return light,
