@@ -70,14 +70,20 @@ pub fn run(args: &[String]) -> Result<()> {
     Ok(())
 }
 
-struct Compared {
-    psnr: f64,
-    visible: f64,
+/// One scene rendered by both and compared.
+pub(crate) struct Compared {
+    /// Lancer's image against POV-Ray's.
+    pub(crate) psnr: f64,
+    /// The share of pixels that differ visibly.
+    pub(crate) visible: f64,
     width: u32,
     height: u32,
 }
 
-fn compare(lancer: &Path, povray: &Path, scene: &Path, width: Option<&str>, extra: &[String]) -> Result<Compared> {
+/// Renders `scene` with Lancer (`lancer`) and with POV-Ray (`povray`) from `lancer export pov`,
+/// both with the flags `extra` (and `width`), and compares the images; the pages go to
+/// `target/compare/<scene>`.
+pub(crate) fn compare(lancer: &Path, povray: &Path, scene: &Path, width: Option<&str>, extra: &[String]) -> Result<Compared> {
     let scene = std::fs::canonicalize(scene).with_context(|| format!("no scene {}", scene.display()))?;
     let rel = scene.strip_prefix(root().join("scenes")).unwrap_or(&scene).with_extension("");
     let out = root().join("target/compare").join(rel.to_string_lossy().replace('/', "-"));
