@@ -158,6 +158,15 @@ pub fn export(
             "without the refraction term transparent objects are written opaque, so POV-Ray darkens their shadows fully where Lancer lets alpha through"
                 .into(),
         ),
+        "transmissive"
+            if !pipeline.shadows.params.iter().any(|(k, v)| k == "each_surface" && *v == lancer_shading::ParamValue::Bool(true))
+                && prepared.materials.iter().any(|m| m.alpha > 0.0) =>
+        {
+            notes.push(
+                "shadows `transmissive` count a closed transparent object once; POV-Ray lets alpha through at each surface (as `each_surface = true`) and objects inside glass cast their shadow"
+                    .into(),
+            )
+        }
         "transmissive" => {}
         "none" => {}
         "hard" if prepared.materials.iter().any(|m| m.alpha > 0.0) => notes.push(

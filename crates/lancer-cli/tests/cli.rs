@@ -915,7 +915,16 @@ fn export_pov_writes_the_handouts_mapping_and_lists_what_povray_cannot_do() {
     for shape in ["plane {", "sphere {", "box {", "cylinder {", "cone {", "torus {"] {
         assert!(pov.contains(shape), "{shape}");
     }
-    assert!(pov.contains("// Everything in the scene has a POV-Ray counterpart."));
+    // The handout's refraction path and once-per-object shadows are not POV-Ray's: said so.
+    assert!(pov.contains("`refraction:seed` crosses transparent objects unshaded"), "{pov}");
+    assert!(pov.contains("shadows `transmissive` count a closed transparent object once"), "{pov}");
+    // Glass traced inside with shadows to match is POV-Ray's own tracing.
+    let model: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "models", "traced.toml"].iter().collect();
+    let model = model.display().to_string();
+    let o = lancer(dir.path(), &["export", "pov", &scene("bench/anchor.toml"), "--model", &model, "-o", "t.pov"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pov = std::fs::read_to_string(dir.path().join("t.pov")).unwrap();
+    assert!(pov.contains("// Everything in the scene has a POV-Ray counterpart."), "{pov}");
     // A variant POV-Ray does not have: said in the file and on stderr.
     let o = lancer(dir.path(), &["export", "pov", &scene("variants/schlick.toml"), "-o", "s.pov"]);
     assert!(o.status.success(), "{}", stderr(&o));

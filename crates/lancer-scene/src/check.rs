@@ -56,8 +56,8 @@ pub fn check(scene: &Scene, pipeline: &Pipeline, prepared: &Prepared, places: &P
             });
         }
     }
-    // `refraction:traced` meets what is inside a transparent object: only the other paths hide it.
-    let hides_inside = pipeline.terms.iter().any(|t| t.name == "refraction" && t.variant != "traced");
+    // `refraction:traced` meets what is inside a transparent object: every other model hides it.
+    let hides_inside = !pipeline.terms.iter().any(|t| t.name == "refraction" && t.variant == "traced");
     for a in (0..geometry.objects.len()).filter(|&a| hides_inside && material(a).alpha > 0.0) {
         // Two transparent objects: said once.
         for b in (0..geometry.objects.len()).filter(|&b| b != a && (b > a || material(b).alpha <= 0.0)) {
