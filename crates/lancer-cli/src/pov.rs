@@ -158,15 +158,6 @@ pub fn export(
             "without the refraction term transparent objects are written opaque, so POV-Ray darkens their shadows fully where Lancer lets alpha through"
                 .into(),
         ),
-        "transmissive"
-            if !pipeline.shadows.params.iter().any(|(k, v)| k == "each_surface" && *v == lancer_shading::ParamValue::Bool(true))
-                && prepared.materials.iter().any(|m| m.alpha > 0.0) =>
-        {
-            notes.push(
-                "shadows `transmissive` count a closed transparent object once; POV-Ray lets alpha through at each surface (as `each_surface = true`) and objects inside glass cast their shadow"
-                    .into(),
-            )
-        }
         "transmissive" => {}
         "none" => {}
         "hard" if prepared.materials.iter().any(|m| m.alpha > 0.0) => notes.push(
@@ -178,6 +169,27 @@ pub fn export(
         other => notes.push(format!("shadow model `{other}` has no POV-Ray counterpart: POV-Ray's own shadows")),
     }
 
+    let each_surface =
+        pipeline.shadows.params.iter().any(|(k, v)| k == "each_surface" && *v == lancer_shading::ParamValue::Bool(true));
+    if ["transmissive", "soft"].contains(&pipeline.shadows.name.as_str())
+        && terms.refraction
+        && !each_surface
+        && prepared.materials.iter().any(|m| m.alpha > 0.0)
+    {
+        notes.push(format!(
+            "shadows `{}` count a closed transparent object once; POV-Ray lets alpha through at each surface (as `each_surface = true`) and objects inside glass cast their shadow",
+            pipeline.shadows.name
+        ));
+    }
+    let sheet = |o: &lancer_shapes::Object| o.shape.is_flat() || !o.shape.is_closed();
+    if pipeline.terms.iter().any(|t| t.name == "refraction" && t.variant == "traced")
+        && prepared.geometry.objects.iter().any(|o| sheet(o) && prepared.materials[o.material as usize].alpha > 0.0)
+    {
+        notes.push(
+            "`refraction:traced` crosses a transparent plane, disk or open mesh as a thin sheet; POV-Ray refracts into a plane's half-space"
+                .into(),
+        );
+    }
     let mut out = String::new();
     let aspect = image.width as f32 / image.height as f32;
     let horizontal = 2.0 * (camera.tan_half_fov * aspect).atan().to_degrees();

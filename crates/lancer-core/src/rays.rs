@@ -14,7 +14,7 @@ pub const CREDIT_OWN: u16 = u16::MAX;
 /// `Hits::object` of a lane whose ray hit nothing.
 pub const NO_HIT: u32 = u32::MAX;
 
-/// The transparent objects a ray is inside, innermost last: what `refraction:traced` reads to
+/// The transparent objects a ray is inside, innermost first: what `refraction:traced` reads to
 /// know the index on each side of a surface (POV-Ray keeps the same list per ray). A camera
 /// ray is in none; a refracted ray's list is its parent's with the object it enters added or the
 /// one it leaves taken off; every other child ray (a reflection, a total internal reflection)

@@ -60,8 +60,8 @@ impl Filter {
     }
 }
 
-/// More crossings than this on one shadow ray count as fully blocked (a pathological stack of
-/// thin glass); it keeps the loop bounded.
+/// More objects crossed than this on one shadow ray count as fully blocked (a pathological stack
+/// of thin glass); it keeps the loop bounded (twice as many surfaces with `each_surface`).
 const MAX_CROSSINGS: usize = 64;
 
 struct Transmissive {
@@ -298,9 +298,12 @@ fn share(
     let once = surface_share(ctx, &hit, tint);
     // In and out before the light: two surfaces (`past` is the hit itself where the ray
     // leaves there, or where the object has no inside).
-    let twice = tint.each_surface
-        && ctx.geometry.past(&hit, dir).is_some_and(|p| p.point != hit.point && (p.point - from).dot(dir) < left);
-    if twice { once * once } else { once }
+    let exit = ctx.geometry.past(&hit, dir).filter(|p| p.point != hit.point && (p.point - from).dot(dir) < left);
+    match exit {
+        // The colour at each surface, as the walk surface by surface finds it.
+        Some(exit) if tint.each_surface => once * surface_share(ctx, &exit, tint),
+        _ => once,
+    }
 }
 
 /// The share of the light the transparent surface of `hit` lets through: `alpha`, times the
@@ -322,7 +325,9 @@ fn onward(
 ) -> Vec3 {
     let mut light = Vec3::ONE;
     let mut surface = *at;
-    for _ in 0..MAX_CROSSINGS {
+    // Surface by surface, a closed object takes two steps.
+    let steps = if tint.each_surface { 2 * MAX_CROSSINGS } else { MAX_CROSSINGS };
+    for _ in 0..steps {
         // Each stretch aimed at the target from where it starts (past each object crossed).
         let Some((from, dir, left)) = crate::aim(ctx.geometry, &surface, target) else {
             return light;

@@ -10,8 +10,8 @@
 //! list of transparent objects it is inside ([`lancer_core::rays::Media`]), so nested and
 //! touching objects bend it by the ratio of their indices (air is 1). As in POV-Ray, a region
 //! where two objects overlap belongs to the one entered last, and leaving an object that is not
-//! the innermost one bends nothing. A flat shape (plane, disk) has no inside: the ray goes on
-//! straight. Total internal reflection sends `R_t` back by the mirror direction, inside,
+//! the innermost one bends nothing. A surface with no inside (a plane, a disk, an open mesh) is a
+//! thin sheet: the ray goes on straight. Total internal reflection sends `R_t` back by the mirror direction, inside,
 //! with the same weight. Only when `alpha > 0`. The handout's path (`seed`) crosses the object
 //! unshaded instead; both agree on a lone sphere seen through once, up to the inner surface's
 //! own shading and the weight `alpha` counted once per crossing here.
@@ -56,27 +56,32 @@ pub(crate) struct Crossing {
 }
 
 /// The media on each side of the surface of `hit` (object `b`, index `n_b`) for a ray inside
-/// `media`. The list decides whether the ray enters or leaves (POV-Ray's rule); a ray that meets
-/// the inside of an object it is not known to be in (a camera inside glass, or an object
-/// forgotten past [`Media::DEPTH`] levels) leaves it into the innermost medium it knows.
+/// `media`. The side of the surface hit says whether the ray enters or leaves; the list gives
+/// the indices (POV-Ray's rule for nested and overlapping objects). A ray that meets the inside
+/// of an object it is not known to be in (a camera inside glass, or an object forgotten past
+/// [`Media::DEPTH`] levels) leaves it into the innermost medium it knows; one that meets the
+/// outside of an object the list says it is in (a list out of step with the geometry, as where
+/// surfaces coincide) enters it afresh.
 pub(crate) fn crossing(ctx: &ShadeContext<'_>, hit: &Hit, media: Media) -> Crossing {
     let b = hit.object;
     let index = |m: Media| m.innermost().map_or(1.0, |o| ctx.material_of(o).n);
     let n_b = ctx.material_of(b).n;
-    if ctx.geometry.objects[b as usize].shape.is_flat() {
+    let shape = &ctx.geometry.objects[b as usize].shape;
+    if shape.is_flat() || !shape.is_closed() {
         let n = index(media);
-        return Crossing { n1: n, n2: n, after: media, kind: "through a flat shape (no inside): straight on" };
+        return Crossing { n1: n, n2: n, after: media, kind: "through a surface with no inside: straight on" };
     }
-    if media.innermost() == Some(b) {
+    if hit.front {
+        let outside = media.leaving(b);
+        Crossing { n1: index(outside), n2: n_b, after: outside.entering(b), kind: "entering the object" }
+    } else if media.innermost() == Some(b) {
         let after = media.leaving(b);
         Crossing { n1: n_b, n2: index(after), after, kind: "leaving the object" }
     } else if media.contains(b) {
         let n = index(media);
         Crossing { n1: n, n2: n, after: media.leaving(b), kind: "leaving an object overlapped by the one it is in" }
-    } else if !hit.front {
-        Crossing { n1: n_b, n2: index(media), after: media, kind: "leaving the object (it started inside)" }
     } else {
-        Crossing { n1: index(media), n2: n_b, after: media.entering(b), kind: "entering the object" }
+        Crossing { n1: n_b, n2: index(media), after: media, kind: "leaving the object (it started inside)" }
     }
 }
 
@@ -207,6 +212,18 @@ mod tests {
             assert!((s - 0.75).abs() < 1e-5 && outward, "{dir}");
             assert_eq!(after, Media::AIR);
         }
+    }
+
+    #[test]
+    fn meeting_the_outside_of_an_object_the_ray_is_said_to_be_in_enters_it_from_air() {
+        // A list out of step with the geometry (the ray "inside" the ball meets its outer
+        // face): the side hit decides, so the ray enters from air by Snell, and the ball is in
+        // the list once.
+        let objects = [(sphere(Vec3::ZERO, 1.0, 0), glass(1.5))];
+        let (dir, _, media) = child(&objects, Vec3::new(0.0, 0.5, -5.0), Media::AIR.entering(0));
+        let (s, outward) = sine(dir, Vec3::new(0.0, 0.5, -(0.75f32).sqrt()));
+        assert!((s - 0.5 / 1.5).abs() < 1e-5 && !outward, "{dir}");
+        assert_eq!(media.iter().collect::<Vec<_>>(), vec![0]);
     }
 
     #[test]
