@@ -72,6 +72,19 @@ fn explained_pixels_hold_the_frames_values_to_the_bit() {
     let deep = mirrors.iter().filter(|e| e.rays.iter().any(|r| r.depth >= 3 && r.hit.is_some())).count();
     assert!(deep > 0, "mirror chains of depth 3 or more explained: {deep}");
     every_pixel_matches("scenes/showcase.toml", 32, 1);
+    // Traced glass: the inner rays are in the tree, those that meet the cube from inside and
+    // those that meet the ball inside it (object 3) after crossing into the cube (object 2).
+    let inside = every_pixel_matches("scenes/ball-in-glass.toml", 40, 1);
+    let inner = |e: &PixelExplanation| {
+        e.rays.iter().any(|r| r.parent.is_some_and(|(_, t)| t == 4) && r.hit.as_ref().is_some_and(|h| !h.front))
+    };
+    let ball = |e: &PixelExplanation| {
+        e.rays.iter().any(|r| {
+            r.parent.is_some_and(|(p, t)| t == 4 && e.rays[p].hit.as_ref().is_some_and(|h| h.object == 2 && h.front))
+                && r.hit.as_ref().is_some_and(|h| h.object == 3)
+        })
+    };
+    assert!(inside.iter().filter(|e| inner(e)).count() > 50 && inside.iter().filter(|e| ball(e)).count() > 20);
     // 70 wide: two tiles to a band, the second 6 pixels wide, cut through its 8 x 8 cells.
     every_pixel_matches("scenes/shapes/torus.toml", 70, 1);
 }

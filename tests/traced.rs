@@ -172,3 +172,39 @@ fn the_ball_in_glass_scene_renders_the_same_bits_on_one_thread_and_two() {
     let middle = one.beauty[h / 2 * w + w / 2];
     assert!(middle.x > 2.0 * middle.z, "red in the middle of the cube: {middle}");
 }
+
+#[test]
+fn a_glass_torus_is_left_and_entered_again() {
+    // Along the z axis the ray crosses the ring's tube twice: in at z = 1.25, out at 0.75, in
+    // again at −0.75, out at −1.25. With n = 1 nothing bends: the traced ray is weighed at all
+    // four surfaces (alpha⁴ · B); the handout's path crosses each side of the ring as one
+    // passage (alpha² · B).
+    let src = |variant: &str| {
+        format!(
+            r#"
+[image]
+width = 3
+height = 3
+background = [0.2, 0.5, 0.8]
+
+[camera]
+from = [0, 0, 10]
+to = [0, 0, 0]
+fov = 1
+
+[model]
+shadows = "none"
+terms = ["refraction:{variant}"]
+
+[[objects]]
+shape = "torus"
+material = {{ ambi = 0, diff = 0, spec = 0, alpha = 0.6, n = 1 }}
+"#
+        )
+    };
+    let b = Vec3::new(0.2, 0.5, 0.8);
+    let traced = centre(&src("traced"));
+    assert!(close(traced, 0.6f32.powi(4) * b), "{traced}");
+    let seed = centre(&src("seed"));
+    assert!(close(seed, 0.36 * b), "{seed}");
+}
