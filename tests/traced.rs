@@ -165,7 +165,8 @@ material = { color = [1, 1, 1] }
 fn the_ball_in_glass_scene_renders_the_same_bits_on_one_thread_and_two() {
     let loaded = lancer_tests::load_file("scenes/ball-in-glass.toml".as_ref());
     let (one, two) = (render(&loaded, Some(96), 1), render(&loaded, Some(96), 2));
-    let bits = |f: &lancer_core::Frame| f.beauty.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    let bits =
+        |f: &lancer_core::Frame| f.beauty.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
     assert_eq!(bits(&one), bits(&two));
     // The ball shows: the traced image is red where it is.
     let (w, h) = (one.width as usize, one.height as usize);

@@ -188,8 +188,13 @@ fn aa_rows(
 }
 
 /// The scenes whose glass the two refraction paths render differently, compared with POV-Ray.
-const GLASS_SCENES: [&str; 5] =
-    ["scenes/glass.toml", "scenes/showcase.toml", "scenes/shapes/csg.toml", "scenes/meshes.toml", "scenes/ball-in-glass.toml"];
+const GLASS_SCENES: [&str; 5] = [
+    "scenes/glass.toml",
+    "scenes/showcase.toml",
+    "scenes/shapes/csg.toml",
+    "scenes/meshes.toml",
+    "scenes/ball-in-glass.toml",
+];
 
 /// The glass scenes against POV-Ray with the handout's refraction path (`seed`, with shadows
 /// counting each object once) and with `refraction:traced` (shadows `each_surface`, as POV-Ray
@@ -209,9 +214,11 @@ fn glass_rows(
     };
     let terms = "ambient,diffuse,specular,mirror";
     let seed = ["--terms", &format!("{terms},refraction:seed"), "--shadows", "transmissive"].map(String::from);
-    let traced =
-        ["--terms", &format!("{terms},refraction:traced"), "--shadows", "transmissive:each_surface=true"].map(String::from);
-    println!("\nGlass against POV-Ray 3.7 (PSNR in dB; `lancer export pov` for each; the scene's samples | adaptive 0.3, depth 3)");
+    let traced = ["--terms", &format!("{terms},refraction:traced"), "--shadows", "transmissive:each_surface=true"]
+        .map(String::from);
+    println!(
+        "\nGlass against POV-Ray 3.7 (PSNR in dB; `lancer export pov` for each; the scene's samples | adaptive 0.3, depth 3)"
+    );
     println!("{:<30} {:>14} {:>14} {:>14} {:>14}", "scene", "seed", "seed adaptive", "traced", "traced adaptive");
     let (mut rows, mut least_traced) = (serde_json::Map::new(), f64::INFINITY);
     for scene in GLASS_SCENES {

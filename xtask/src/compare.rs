@@ -83,7 +83,13 @@ pub(crate) struct Compared {
 /// Renders `scene` with Lancer (`lancer`) and with POV-Ray (`povray`) from `lancer export pov`,
 /// both with the flags `extra` (and `width`), and compares the images; the pages go to
 /// `target/compare/<scene>`.
-pub(crate) fn compare(lancer: &Path, povray: &Path, scene: &Path, width: Option<&str>, extra: &[String]) -> Result<Compared> {
+pub(crate) fn compare(
+    lancer: &Path,
+    povray: &Path,
+    scene: &Path,
+    width: Option<&str>,
+    extra: &[String],
+) -> Result<Compared> {
     let scene = std::fs::canonicalize(scene).with_context(|| format!("no scene {}", scene.display()))?;
     let rel = scene.strip_prefix(root().join("scenes")).unwrap_or(&scene).with_extension("");
     let out = root().join("target/compare").join(rel.to_string_lossy().replace('/', "-"));

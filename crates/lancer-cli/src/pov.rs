@@ -169,8 +169,11 @@ pub fn export(
         other => notes.push(format!("shadow model `{other}` has no POV-Ray counterpart: POV-Ray's own shadows")),
     }
 
-    let each_surface =
-        pipeline.shadows.params.iter().any(|(k, v)| k == "each_surface" && *v == lancer_shading::ParamValue::Bool(true));
+    let each_surface = pipeline
+        .shadows
+        .params
+        .iter()
+        .any(|(k, v)| k == "each_surface" && *v == lancer_shading::ParamValue::Bool(true));
     if ["transmissive", "soft"].contains(&pipeline.shadows.name.as_str())
         && terms.refraction
         && !each_surface

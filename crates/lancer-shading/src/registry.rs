@@ -543,7 +543,10 @@ mod tests {
         let r = Registry::with_builtins();
         let p = Params::new([("tnt".to_owned(), ParamValue::Bool(true))]);
         let e = r.build_shadow("transmissive", p).err().unwrap();
-        assert_eq!(e.to_string(), "`transmissive` has no parameter `tnt` (did you mean `tint`?); its parameters: tint, each_surface");
+        assert_eq!(
+            e.to_string(),
+            "`transmissive` has no parameter `tnt` (did you mean `tint`?); its parameters: tint, each_surface"
+        );
         let p = Params::new([("tint".to_owned(), ParamValue::Number(1.0))]);
         let e = r.build_shadow("transmissive", p).err().unwrap();
         assert_eq!(e.to_string(), "`transmissive`: parameter `tint`: expected a boolean, found a number");

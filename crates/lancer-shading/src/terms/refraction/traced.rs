@@ -144,7 +144,7 @@ impl Term for Traced {
         // media may differ.
         for lane in chunk.hit_lanes() {
             let m = ctx.material(chunk.hits, lane);
-            if !(m.alpha > 0.0) || !out.can_spawn(lane) {
+            if m.alpha.is_nan() || m.alpha <= 0.0 || !out.can_spawn(lane) {
                 continue;
             }
             let hit = ctx.hit(chunk.hits, lane);
@@ -171,8 +171,12 @@ mod tests {
     }
 
     fn sphere(at: Vec3, radius: f32, k: u32) -> Object {
-        Object::new(Shape::Sphere, Affine3A::from_scale_rotation_translation(Vec3::splat(radius), glam::Quat::IDENTITY, at), k)
-            .unwrap()
+        Object::new(
+            Shape::Sphere,
+            Affine3A::from_scale_rotation_translation(Vec3::splat(radius), glam::Quat::IDENTITY, at),
+            k,
+        )
+        .unwrap()
     }
 
     /// The one child of the ray from `from` along +z, inside `media`.
