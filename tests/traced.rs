@@ -6,11 +6,9 @@
 use glam::Vec3;
 use lancer_tests::{load, render};
 
-/// A 3 x 3 image looking down -z at a glass slab (a cube scaled flat, its faces square to the
-/// view) in front of the background, with `inside` placed in the slab; the model's refraction
-/// `variant` and shadows as given. Only the refraction term adds anything: no lights reach a
-/// term that reads them.
-fn slab(variant: &str, shadows: &str, inside: &str) -> String {
+/// A 3 x 3 image looking down -z from z = 10 at the origin with a field of view of `fov`
+/// degrees, in front of the background (0.2, 0.5, 0.8); `rest` holds the model and objects.
+fn looking_down_z(fov: f32, rest: &str) -> String {
     format!(
         r#"
 [image]
@@ -21,8 +19,19 @@ background = [0.2, 0.5, 0.8]
 [camera]
 from = [0, 0, 10]
 to = [0, 0, 0]
-fov = 2
+fov = {fov}
+{rest}"#
+    )
+}
 
+/// [`looking_down_z`] at a glass slab (a cube scaled flat, its faces square to the view), with
+/// `inside` placed in the slab; the model's refraction `variant` and shadows as given. Only the
+/// refraction term adds anything: no lights reach a term that reads them.
+fn slab(variant: &str, shadows: &str, inside: &str) -> String {
+    looking_down_z(
+        2.0,
+        &format!(
+            r#"
 [model]
 max_depth = 8
 shadows = {shadows}
@@ -34,6 +43,7 @@ scale = [3, 3, 1]
 material = {{ ambi = 0, diff = 0, spec = 0, alpha = 0.6, n = 1.5 }}
 {inside}
 "#
+        ),
     )
 }
 
@@ -181,18 +191,10 @@ fn a_glass_torus_is_left_and_entered_again() {
     // four surfaces (alpha⁴ · B); the handout's path crosses each side of the ring as one
     // passage (alpha² · B).
     let src = |variant: &str| {
-        format!(
-            r#"
-[image]
-width = 3
-height = 3
-background = [0.2, 0.5, 0.8]
-
-[camera]
-from = [0, 0, 10]
-to = [0, 0, 0]
-fov = 1
-
+        looking_down_z(
+            1.0,
+            &format!(
+                r#"
 [model]
 shadows = "none"
 terms = ["refraction:{variant}"]
@@ -201,6 +203,7 @@ terms = ["refraction:{variant}"]
 shape = "torus"
 material = {{ ambi = 0, diff = 0, spec = 0, alpha = 0.6, n = 1 }}
 "#
+            ),
         )
     };
     let b = Vec3::new(0.2, 0.5, 0.8);

@@ -44,14 +44,14 @@ pub const SPEC: ShadowSpec = ShadowSpec {
                 message: format!("expected a square number such as 4, 16 or 64, found {samples}"),
             });
         }
-        Ok(Box::new(Soft { side: side as u32, tint: Filter::from_params(p)? }))
+        Ok(Box::new(Soft { side: side as u32, filter: Filter::from_params(p)? }))
     },
     mistake: None,
 };
 
 struct Soft {
     side: u32,
-    tint: Filter,
+    filter: Filter,
 }
 
 /// A 64-bit mix (SplitMix64's finaliser): well-spread bits from any input.
@@ -90,7 +90,7 @@ fn seed(p: Vec3) -> u64 {
 impl ShadowModel for Soft {
     fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3 {
         if light.size <= 0.0 {
-            return through_occluders(ctx, at, light.at, self.tint);
+            return through_occluders(ctx, at, light.at, self.filter);
         }
         let seed = seed(at.local);
         let n = self.side * self.side;
@@ -99,7 +99,7 @@ impl ShadowModel for Soft {
             let sample = self.sample(light, seed, cell);
             // A sample at the hit point itself lends nothing (as in the blocks below).
             if ctx.toward(at, sample).is_some() {
-                sum += through_occluders(ctx, at, sample, self.tint);
+                sum += through_occluders(ctx, at, sample, self.filter);
             }
         }
         sum / n as f32
@@ -107,7 +107,7 @@ impl ShadowModel for Soft {
 
     fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, light: &Light, out: &mut [Vec3]) {
         if light.size <= 0.0 {
-            return through_occluders_each(ctx, block, self.tint, out);
+            return through_occluders_each(ctx, block, self.filter, out);
         }
         let mut hits = [Hit::default(); BLOCK];
         for (i, hit) in hits.iter_mut().enumerate().take(block.len()) {
@@ -123,7 +123,7 @@ impl ShadowModel for Soft {
                 ctx,
                 hits,
                 |i| self.sample(light, seed(hits[i].local), cell),
-                self.tint,
+                self.filter,
                 |i, through| {
                     if let Some(through) = through {
                         out[i] += through;
@@ -143,7 +143,7 @@ mod tests {
 
     #[test]
     fn samples_cover_the_square_one_per_cell() {
-        let soft = Soft { side: 4, tint: Filter::default() };
+        let soft = Soft { side: 4, filter: Filter::default() };
         let light = Light { at: Vec3::new(1.0, 5.0, -2.0), color: Vec3::ONE, intensity: 1.0, size: 2.0 };
         let mut cells = vec![0; 16];
         for cell in 0..16 {

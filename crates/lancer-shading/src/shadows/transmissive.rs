@@ -29,7 +29,7 @@ pub const SPEC: ShadowSpec = ShadowSpec {
     name: "transmissive",
     summary: "transparent occluders attenuate the light by their alpha instead of blocking it",
     params: &[TINT, EACH_SURFACE],
-    build: |p: &mut Params| Ok(Box::new(Transmissive { tint: Filter::from_params(p)? })),
+    build: |p: &mut Params| Ok(Box::new(Transmissive { filter: Filter::from_params(p)? })),
     mistake: None,
 };
 
@@ -65,17 +65,17 @@ impl Filter {
 const MAX_CROSSINGS: usize = 64;
 
 struct Transmissive {
-    tint: Filter,
+    filter: Filter,
 }
 
 impl ShadowModel for Transmissive {
     fn transmittance(&self, ctx: &ShadowContext<'_>, at: &Hit, light: &Light) -> Vec3 {
-        through_occluders(ctx, at, light.at, self.tint)
+        through_occluders(ctx, at, light.at, self.filter)
     }
 
     fn transmittance_each(&self, ctx: &ShadowContext<'_>, block: &HitBlock<'_>, light: &Light, out: &mut [Vec3]) {
         debug_assert_eq!(block.target(), light.at, "the block's rays go to the light");
-        through_occluders_each(ctx, block, self.tint, out);
+        through_occluders_each(ctx, block, self.filter, out);
     }
 }
 
@@ -86,18 +86,18 @@ impl ShadowModel for Transmissive {
 /// once, from where the ray enters it to where it leaves ([`lancer_shapes::Geometry::past`], the
 /// same exit query as the refraction path); a surface with no inside (a disk, an open mesh)
 /// counts at each crossing, and the ray goes on beyond it.
-pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, target: Vec3, tint: Filter) -> Vec3 {
-    onward(ctx, at, target, tint, None)
+pub fn through_occluders(ctx: &ShadowContext<'_>, at: &Hit, target: Vec3, filter: Filter) -> Vec3 {
+    onward(ctx, at, target, filter, None)
 }
 
 /// [`through_occluders`] from each hit of `block` along its straight ray, into `out`: the first
 /// stretch of every shadow ray traced together ([`ShadowContext::occluders_through`], convex
 /// transparent objects seen through), the rest (past transparent objects, where something else
 /// lies on the ray) one by one. Each hit gets what `through_occluders` gives it alone.
-pub fn through_occluders_each(ctx: &ShadowContext<'_>, block: &HitBlock<'_>, tint: Filter, out: &mut [Vec3]) {
+pub fn through_occluders_each(ctx: &ShadowContext<'_>, block: &HitBlock<'_>, filter: Filter, out: &mut [Vec3]) {
     FIRST.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut first) => through_block(ctx, block, tint, out, &mut first),
-        Err(_) => through_block(ctx, block, tint, out, &mut [None; BLOCK]),
+        Ok(mut first) => through_block(ctx, block, filter, out, &mut first),
+        Err(_) => through_block(ctx, block, filter, out, &mut [None; BLOCK]),
     })
 }
 
@@ -112,7 +112,7 @@ thread_local! {
 fn through_block(
     ctx: &ShadowContext<'_>,
     block: &HitBlock<'_>,
-    tint: Filter,
+    filter: Filter,
     out: &mut [Vec3],
     first: &mut [Crossing; BLOCK],
 ) {
@@ -133,8 +133,8 @@ fn through_block(
     });
     for (i, out) in out.iter_mut().enumerate().take(n) {
         *out = if ahead(i) {
-            settled(ctx, block.origin(i).point, block.dir(i), block.left(i), first[i], tint, blocked[i])
-                .unwrap_or_else(|| onward(ctx, &block.hit(ctx, i), block.target(), tint, Some(first[i])))
+            settled(ctx, block.origin(i).point, block.dir(i), block.left(i), first[i], filter, blocked[i])
+                .unwrap_or_else(|| onward(ctx, &block.hit(ctx, i), block.target(), filter, Some(first[i])))
         } else {
             Vec3::ONE
         };
@@ -148,12 +148,12 @@ pub(crate) fn through_each(
     ctx: &ShadowContext<'_>,
     hits: &[Hit],
     target: impl Fn(usize) -> Vec3,
-    tint: Filter,
+    filter: Filter,
     done: impl FnMut(usize, Option<Vec3>),
 ) {
     SCRATCH.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut columns) => through_blocks(&mut columns, ctx, hits, target, tint, done),
-        Err(_) => through_blocks(&mut Box::new(Columns::new()), ctx, hits, target, tint, done),
+        Ok(mut columns) => through_blocks(&mut columns, ctx, hits, target, filter, done),
+        Err(_) => through_blocks(&mut Box::new(Columns::new()), ctx, hits, target, filter, done),
     })
 }
 
@@ -195,7 +195,7 @@ fn through_blocks(
     ctx: &ShadowContext<'_>,
     hits: &[Hit],
     target: impl Fn(usize) -> Vec3,
-    tint: Filter,
+    filter: Filter,
     mut done: impl FnMut(usize, Option<Vec3>),
 ) {
     let Columns { origin, skip, dir, left, goal, ray, first } = c;
@@ -235,8 +235,8 @@ fn through_blocks(
                 Ok(r) => {
                     let (from, d) = (lines.origin(r), lines.dir(r));
                     Some(
-                        settled(ctx, from, d, left[r], first[r], tint, blocked[r])
-                            .unwrap_or_else(|| onward(ctx, at, goal[r], tint, Some(first[r]))),
+                        settled(ctx, from, d, left[r], first[r], filter, blocked[r])
+                            .unwrap_or_else(|| onward(ctx, at, goal[r], filter, Some(first[r]))),
                     )
                 }
             };
@@ -264,14 +264,14 @@ fn settled(
     dir: Vec3,
     left: f32,
     first: Crossing,
-    tint: Filter,
+    filter: Filter,
     blocked: bool,
 ) -> Option<Vec3> {
     match first {
         None => Some(Vec3::ONE),
         Some((object, _)) if ctx.material_of(object).alpha <= 0.0 => Some(Vec3::ZERO),
         Some((object, crossing)) if !blocked && see_through(ctx, object) => {
-            Some(share(ctx, object, from, dir, left, &crossing, tint))
+            Some(share(ctx, object, from, dir, left, &crossing, filter))
         }
         Some(_) => None,
     }
@@ -289,19 +289,19 @@ fn share(
     dir: Vec3,
     left: f32,
     crossing: &lancer_shapes::ShapeHit,
-    tint: Filter,
+    filter: Filter,
 ) -> Vec3 {
-    if !tint.tint && !tint.each_surface {
+    if !filter.tint && !filter.each_surface {
         return Vec3::splat(ctx.material_of(object).alpha);
     }
     let hit = ctx.geometry.objects[object as usize].hit(object, from, dir, crossing);
-    let once = surface_share(ctx, &hit, tint);
+    let once = surface_share(ctx, &hit, filter);
     // In and out before the light: two surfaces (`past` is the hit itself where the ray
     // leaves there, or where the object has no inside).
     let exit = ctx.geometry.past(&hit, dir).filter(|p| p.point != hit.point && (p.point - from).dot(dir) < left);
     match exit {
         // The colour at each surface, as the walk surface by surface finds it.
-        Some(exit) if tint.each_surface => once * surface_share(ctx, &exit, tint),
+        Some(exit) if filter.each_surface => once * surface_share(ctx, &exit, filter),
         _ => once,
     }
 }
@@ -309,9 +309,9 @@ fn share(
 /// The share of the light the transparent surface of `hit` lets through: `alpha`, times the
 /// colour there with `tint` (at most 1).
 #[inline]
-fn surface_share(ctx: &ShadowContext<'_>, hit: &Hit, tint: Filter) -> Vec3 {
+fn surface_share(ctx: &ShadowContext<'_>, hit: &Hit, filter: Filter) -> Vec3 {
     let alpha = ctx.material_of(hit.object).alpha;
-    if tint.tint { alpha * ctx.color_at(hit).min(Vec3::ONE) } else { Vec3::splat(alpha) }
+    if filter.tint { alpha * ctx.color_at(hit).min(Vec3::ONE) } else { Vec3::splat(alpha) }
 }
 
 /// The walk of [`through_occluders`]; `given`: the answer to its first shadow ray when it was
@@ -320,13 +320,13 @@ fn onward(
     ctx: &ShadowContext<'_>,
     at: &Hit,
     target: Vec3,
-    tint: Filter,
+    filter: Filter,
     mut given: Option<Option<(u32, lancer_shapes::ShapeHit)>>,
 ) -> Vec3 {
     let mut light = Vec3::ONE;
     let mut surface = *at;
     // Surface by surface, a closed object takes two steps.
-    let steps = if tint.each_surface { 2 * MAX_CROSSINGS } else { MAX_CROSSINGS };
+    let steps = if filter.each_surface { 2 * MAX_CROSSINGS } else { MAX_CROSSINGS };
     for _ in 0..steps {
         // Each stretch aimed at the target from where it starts (past each object crossed).
         let Some((from, dir, left)) = crate::aim(ctx.geometry, &surface, target) else {
@@ -348,18 +348,18 @@ fn onward(
         // (The same stretch asked again, past the object: one shadow ray, as a block's stretch
         // traced with the object seen through is.)
         if traced && see_through(ctx, object) && !ctx.geometry.any_hit_without(from, dir, left, object) {
-            return light * share(ctx, object, from.point, dir, left, &crossing, tint);
+            return light * share(ctx, object, from.point, dir, left, &crossing, filter);
         }
         let hit = ctx.geometry.objects[object as usize].hit(object, from.point, dir, &crossing);
-        if tint.each_surface {
+        if filter.each_surface {
             // Surface by surface, as `refraction:traced`'s rays go: the next stretch starts at
             // this one, so what lies inside the object is met (an opaque ball inside glass
             // casts its shadow).
-            light *= surface_share(ctx, &hit, tint);
+            light *= surface_share(ctx, &hit, filter);
             surface = hit;
             continue;
         }
-        light *= share(ctx, object, from.point, dir, left, &crossing, tint);
+        light *= share(ctx, object, from.point, dir, left, &crossing, filter);
         match ctx.geometry.past(&hit, dir) {
             // Leaving it beyond the light: the light is inside it, and nothing else counts.
             Some(past) if (past.point - from.point).dot(dir) >= left => return light,
