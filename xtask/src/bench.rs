@@ -342,6 +342,55 @@ fn field_files(dir: &Path, n: usize) -> Result<(std::path::PathBuf, std::path::P
     Ok((obj, path))
 }
 
+/// The height field at 10k, 100k and 1M triangles (640x360, 2 threads): render time, ns per ray,
+/// loading time and peak memory, and the memory per triangle (the growth of the peak from 10k to
+/// 1M triangles, so the renderer's own fixed cost drops out).
+fn mesh_rows(
+    lancer: &Path,
+    dir: &Path,
+    runs: usize,
+    json: &mut serde_json::Map<String, serde_json::Value>,
+    targets: &mut Vec<Target>,
+) -> Result<()> {
+    println!("\nScaling with the triangle count (a rippled height-field mesh, 640x360, 2 threads, median of {runs})");
+    println!(
+        "{:>10} {:>12} {:>12} {:>14} {:>10} {:>11}",
+        "triangles", "render (s)", "M rays", "ns per ray", "load (s)", "peak (MB)"
+    );
+    let mut mesh_rows = Vec::new();
+    let mut meshes = Vec::new();
+    for n in [10_000usize, 100_000, 1_000_000] {
+        let (_, path) = field_files(dir, n)?;
+        let r = median_run(lancer, &path, 2, runs, &[])?;
+        let ns = 2.0 * r.secs * 1e9 / r.rays;
+        println!("{n:>10} {:>12.3} {:>12.2} {ns:>14.1} {:>10.3} {:>11.1}", r.secs, r.rays / 1e6, r.load, r.peak_mb);
+        mesh_rows.push(serde_json::json!({
+            "triangles": n, "render_s": r.secs, "rays": r.rays, "ns_per_ray": ns, "load_s": r.load, "peak_mb": r.peak_mb,
+        }));
+        meshes.push((n, r, ns));
+    }
+    // Memory per triangle: the growth of the peak from 10,000 to 1,000,000 triangles.
+    let (small, large) = (meshes[0], meshes[2]);
+    let per_triangle = (large.1.peak_mb - small.1.peak_mb) * 1e6 / (large.0 - small.0) as f64;
+    println!("memory per triangle (growth of the peak from 10k to 1M triangles): {per_triangle:.0} bytes");
+    json.insert("meshes".into(), mesh_rows.into());
+    json.insert("bytes_per_triangle".into(), per_triangle.into());
+    targets.push(Target { what: "1M triangles: ns per ray", measured: large.2, bound: 300.0, at_most: true });
+    targets.push(Target {
+        what: "1M triangles: loading with the BVH build (s)",
+        measured: large.1.load,
+        bound: 0.5,
+        at_most: true,
+    });
+    targets.push(Target {
+        what: "1M triangles: bytes per triangle",
+        measured: per_triangle,
+        bound: 100.0,
+        at_most: true,
+    });
+    Ok(())
+}
+
 /// The 1M-triangle height field on 1 thread against the same rays priced at Embree 3's
 /// single-ray rates (the harness of [`crate::embree`]), taken in pairs (Lancer, then Embree):
 /// rows, JSON under `embree`, and the target; says why when it cannot be measured (Embree not
@@ -522,7 +571,7 @@ fn check_quiet(when: &str) -> Option<f64> {
     busy
 }
 
-/// `cargo xtask bench [--runs N] [--only web|embree|aa|glass]`: prints the tables and the targets, and
+/// `cargo xtask bench [--runs N] [--only web|embree|meshes|aa|glass]`: prints the tables and the targets, and
 /// writes them as JSON to `target/bench/bench.json` (with `--only`, only those rows, to
 /// `target/bench/bench-web.json` or `bench-embree.json`).
 pub fn run(args: &[String]) -> Result<()> {
@@ -540,14 +589,19 @@ pub fn run(args: &[String]) -> Result<()> {
             "web" => web_rows(&lancer, runs, &mut json, &mut targets),
             "aa" => aa_rows(&lancer, runs, povray_installed(), &mut json)?,
             "glass" => glass_rows(&lancer, &mut json, &mut targets)?,
-            "embree" => {
+            "embree" | "meshes" => {
                 let dir = std::env::temp_dir().join("lancer-bench-scenes");
                 std::fs::create_dir_all(&dir)?;
-                embree_rows(&lancer, &dir, runs, &mut json, &mut targets);
+                if only == "embree" {
+                    embree_rows(&lancer, &dir, runs, &mut json, &mut targets);
+                } else {
+                    mesh_rows(&lancer, &dir, runs, &mut json, &mut targets)?;
+                }
             }
             _ => bail!(
                 "--only takes `web` (the browser build against native renders of the anchor), `embree` (the \
-                 1M-triangle field against Embree 3), `aa` (adaptive anti-aliasing against POV-Ray's and 9 samples) \
+                 1M-triangle field against Embree 3), `meshes` (the height field from 10k to 1M triangles: time, \
+                 loading and memory per triangle), `aa` (adaptive anti-aliasing against POV-Ray's and 9 samples) \
                  or `glass` (the glass scenes against POV-Ray with both refraction paths)"
             ),
         }
@@ -793,42 +847,7 @@ pub fn run(args: &[String]) -> Result<()> {
         });
     }
 
-    println!("\nScaling with the triangle count (a rippled height-field mesh, 640x360, 2 threads, median of {runs})");
-    println!(
-        "{:>10} {:>12} {:>12} {:>14} {:>10} {:>11}",
-        "triangles", "render (s)", "M rays", "ns per ray", "load (s)", "peak (MB)"
-    );
-    let mut mesh_rows = Vec::new();
-    let mut meshes = Vec::new();
-    for n in [10_000usize, 100_000, 1_000_000] {
-        let (_, path) = field_files(&dir, n)?;
-        let r = median_run(&lancer, &path, 2, runs, &[])?;
-        let ns = 2.0 * r.secs * 1e9 / r.rays;
-        println!("{n:>10} {:>12.3} {:>12.2} {ns:>14.1} {:>10.3} {:>11.1}", r.secs, r.rays / 1e6, r.load, r.peak_mb);
-        mesh_rows.push(serde_json::json!({
-            "triangles": n, "render_s": r.secs, "rays": r.rays, "ns_per_ray": ns, "load_s": r.load, "peak_mb": r.peak_mb,
-        }));
-        meshes.push((n, r, ns));
-    }
-    // Memory per triangle: the growth of the peak from 10,000 to 1,000,000 triangles.
-    let (small, large) = (meshes[0], meshes[2]);
-    let per_triangle = (large.1.peak_mb - small.1.peak_mb) * 1e6 / (large.0 - small.0) as f64;
-    println!("memory per triangle (growth of the peak from 10k to 1M triangles): {per_triangle:.0} bytes");
-    json.insert("meshes".into(), mesh_rows.into());
-    json.insert("bytes_per_triangle".into(), per_triangle.into());
-    targets.push(Target { what: "1M triangles: ns per ray", measured: large.2, bound: 300.0, at_most: true });
-    targets.push(Target {
-        what: "1M triangles: loading with the BVH build (s)",
-        measured: large.1.load,
-        bound: 0.5,
-        at_most: true,
-    });
-    targets.push(Target {
-        what: "1M triangles: bytes per triangle",
-        measured: per_triangle,
-        bound: 100.0,
-        at_most: true,
-    });
+    mesh_rows(&lancer, &dir, runs, &mut json, &mut targets)?;
 
     embree_rows(&lancer, &dir, runs, &mut json, &mut targets);
 

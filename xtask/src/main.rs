@@ -21,7 +21,7 @@ use anyhow::{Context, Result, bail};
 const USAGE: &str = "usage: cargo xtask <task> [options]
 
 tasks:
-  bench [--runs N] [--only web|embree]
+  bench [--runs N] [--only web|embree|meshes|aa|glass]
             Lancer against POV-Ray 3.7 (when installed) on scenes/bench/anchor, 1 and 2 threads;
             render cost against the number of objects and triangles; the 1M-triangle field
             against Embree 3 (when libembree-dev is installed); the browser build in Chromium
