@@ -342,6 +342,14 @@ fn field_files(dir: &Path, n: usize) -> Result<(std::path::PathBuf, std::path::P
     Ok((obj, path))
 }
 
+/// The folder of the scenes the bench generates (created if need be), kept between runs: the
+/// 1M-triangle field's OBJ alone is 36 MB.
+fn scenes_dir() -> Result<std::path::PathBuf> {
+    let dir = std::env::temp_dir().join("lancer-bench-scenes");
+    std::fs::create_dir_all(&dir)?;
+    Ok(dir)
+}
+
 /// The height field at 10k, 100k and 1M triangles (640x360, 2 threads): render time, ns per ray,
 /// loading time and peak memory, and the memory per triangle (the growth of the peak from 10k to
 /// 1M triangles, so the renderer's own fixed cost drops out).
@@ -573,7 +581,7 @@ fn check_quiet(when: &str) -> Option<f64> {
 
 /// `cargo xtask bench [--runs N] [--only web|embree|meshes|aa|glass]`: prints the tables and the targets, and
 /// writes them as JSON to `target/bench/bench.json` (with `--only`, only those rows, to
-/// `target/bench/bench-web.json` or `bench-embree.json`).
+/// `target/bench/bench-<ONLY>.json`).
 pub fn run(args: &[String]) -> Result<()> {
     let TaskArgs { options, filter } = parse_common(args, &["runs", "only"])?;
     if let Some(f) = filter {
@@ -589,15 +597,8 @@ pub fn run(args: &[String]) -> Result<()> {
             "web" => web_rows(&lancer, runs, &mut json, &mut targets),
             "aa" => aa_rows(&lancer, runs, povray_installed(), &mut json)?,
             "glass" => glass_rows(&lancer, &mut json, &mut targets)?,
-            "embree" | "meshes" => {
-                let dir = std::env::temp_dir().join("lancer-bench-scenes");
-                std::fs::create_dir_all(&dir)?;
-                if only == "embree" {
-                    embree_rows(&lancer, &dir, runs, &mut json, &mut targets);
-                } else {
-                    mesh_rows(&lancer, &dir, runs, &mut json, &mut targets)?;
-                }
-            }
+            "embree" => embree_rows(&lancer, &scenes_dir()?, runs, &mut json, &mut targets),
+            "meshes" => mesh_rows(&lancer, &scenes_dir()?, runs, &mut json, &mut targets)?,
             _ => bail!(
                 "--only takes `web` (the browser build against native renders of the anchor), `embree` (the \
                  1M-triangle field against Embree 3), `meshes` (the height field from 10k to 1M triangles: time, \
@@ -792,8 +793,7 @@ pub fn run(args: &[String]) -> Result<()> {
 
     println!("\nScaling with the object count (a grid of spheres over a floor, 640x360, 2 threads, median of {runs})");
     println!("{:>8} {:>12} {:>12} {:>14}", "spheres", "render (s)", "M rays", "ns per ray");
-    let dir = std::env::temp_dir().join("lancer-bench-scenes");
-    std::fs::create_dir_all(&dir)?;
+    let dir = scenes_dir()?;
     let mut sphere_rows = Vec::new();
     for n in [10usize, 100, 1_000, 10_000] {
         let path = dir.join(format!("spheres-{n}.toml"));
