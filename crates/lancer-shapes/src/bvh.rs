@@ -10,7 +10,7 @@ use wide::{CmpGe, CmpLe, f32x4};
 use crate::Aabb;
 
 /// A node of the 4-wide tree: up to four children, each an inner node or a run of items.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, bytemuck::Zeroable)]
 struct Node4 {
     /// Children's lower (`planes[0]`) and upper (`planes[1]`) corners, per axis, one lane per
     /// child: a ray picks its near and far planes per axis by index, once.
@@ -69,26 +69,29 @@ impl Bvh {
         let mut items: Vec<Item> =
             (0..n).into_par_iter().map(|i| Item { bounds: bounds(i), index: i as u32 }).collect();
         let extent = Extent::of(&items);
-        let mut nodes = Vec::new();
-        let root = match plan(&mut items, extent, 0, step) {
-            Some(split) => build(&mut items, 0, split, 1, step, &mut nodes),
+        let (nodes, root, indices) = match plan(&mut items, extent, 0, step) {
+            Some(split) => {
+                // Room for the largest tree over n items (see `room`), zeroed and so committed
+                // by the system only where nodes are written: no list of nodes is ever joined to
+                // another (which held both at once, the build's peak).
+                let mut nodes: Vec<Node4> = bytemuck::zeroed_vec(room(n));
+                let mut spans = Vec::new();
+                let root = build(&mut items, 0, split, 1, step, &mut Region::new(&mut nodes, 0), &mut spans);
+                // The item boxes go before the gaps are closed: moving a stretch writes pages
+                // of the array not yet written, while the pages it leaves are given back only
+                // once the array is cut to the tree's size.
+                let indices = leaf_items(items);
+                let root = compact(&mut nodes, &spans, root);
+                (nodes, root, indices)
+            }
             // A single leaf: one slot of the root.
             None => {
                 let mut root = Node4::EMPTY;
                 root.set(0, &extent.bounds, 0, n as u32);
-                nodes.push(root);
-                0
+                (vec![root], 0, leaf_items(items))
             }
         };
-        nodes.shrink_to_fit();
-        Bvh {
-            nodes,
-            indices: items.into_iter().map(|i| i.index).collect(),
-            ordered: false,
-            items: n,
-            root,
-            bounds: extent.bounds,
-        }
+        Bvh { nodes, indices, ordered: false, items: n, root, bounds: extent.bounds }
     }
 
     /// Number of items.
@@ -326,20 +329,55 @@ struct Kid {
     split: Option<(usize, Extent, Extent)>,
 }
 
+/// The item of each leaf position, in a list of its own (collected in place, it would keep the
+/// boxes' room: seven times its size).
+fn leaf_items(items: Vec<Item>) -> Vec<u32> {
+    items.iter().map(|i| i.index).collect()
+}
+
+/// The most nodes a tree over `n` (at least 2) items can have: every node has at least two
+/// children and every leaf at least one item, so there are fewer nodes than items.
+fn room(n: usize) -> usize {
+    n.saturating_sub(1).max(1)
+}
+
+/// Where a subtree's nodes go: a stretch of the tree's node array (`nodes[0]` is node `base`)
+/// with [`room`] for the subtree, filled from the front.
+struct Region<'a> {
+    nodes: &'a mut [Node4],
+    base: usize,
+    used: usize,
+}
+
+impl<'a> Region<'a> {
+    fn new(nodes: &'a mut [Node4], base: usize) -> Self {
+        Region { nodes, base, used: 0 }
+    }
+
+    /// Writes `node` at the next free place; its node index.
+    fn push(&mut self, node: Node4) -> u32 {
+        self.nodes[self.used] = node;
+        self.used += 1;
+        (self.base + self.used - 1) as u32
+    }
+}
+
 /// Builds the 4-wide node over `items` (at `offset` in the whole item list), split as `split`
-/// says, and its subtree, appending them to `out` (in preorder for a small range; a large one's
-/// node goes after its subtrees); returns the node's index. The node's children are the split's
-/// two halves, the widest (by surface area) of those that split again replaced by its halves
-/// until there are four: the binary SAH tree collapsed, built without it. Inner children of
-/// large nodes are built on several threads into their own lists, appended in order: the tree
-/// is the same whatever the number of threads.
+/// says, and its subtree, writing them into `out` in preorder; returns the node's index, and adds
+/// the stretches of the node array it wrote (start, length) to `spans`, in order. The node's
+/// children are the split's two halves, the widest (by surface area) of those that split again
+/// replaced by its halves until there are four: the binary SAH tree collapsed, built without it.
+/// Inner children of large nodes are built on several threads, each into its own region of the
+/// node array (as much room as its subtree can take, so the regions are fixed before any is
+/// built): the tree is the same whatever the number of threads, and [`compact`] closes the gaps.
 fn build(
     items: &mut [Item],
     offset: usize,
     split: (usize, Extent, Extent),
     depth: usize,
     step: f32,
-    out: &mut Vec<Node4>,
+    out: &mut Region,
+    spans: &mut Vec<(usize, usize)>,
 ) -> u32 {
     let n = items.len();
     // The two halves of a split range, each planned (on two threads for a large range).
@@ -367,12 +405,14 @@ fn build(
         kids.insert(k, l);
     }
     let mut node = Node4::EMPTY;
+    let me = out.push(Node4::EMPTY);
     if n >= PARALLEL {
-        // Each inner child's subtree in its own list, built at once; the first list becomes this
-        // subtree's (moved, not copied), the others are appended with their node indices moved by
-        // where they land, and this node goes last. (`out` is empty here: a large range is the
-        // root's, or a child's of another large range, which starts a list of its own.)
-        debug_assert!(out.is_empty());
+        // This node ends its region's first stretch; each inner child's subtree is built at once
+        // into a region of its own, cut from the rest of this one in slot order. (This node is
+        // its region's first: a large range is the root's, or a child's of another large range,
+        // which has a region of its own.)
+        debug_assert_eq!(out.used, 1);
+        spans.push((out.base, 1));
         let mut slices = Vec::with_capacity(4);
         let mut rest = items;
         for k in &kids {
@@ -380,67 +420,96 @@ fn build(
             slices.push(head);
             rest = tail;
         }
-        let lists: Vec<Option<(Vec<Node4>, u32)>> = slices
+        let mut regions = Vec::with_capacity(4);
+        let (mut free, mut base) = (&mut out.nodes[1..], out.base + 1);
+        for k in &kids {
+            let take = if k.split.is_some() { room(k.len) } else { 0 };
+            let (head, tail) = std::mem::take(&mut free).split_at_mut(take);
+            regions.push(Region::new(head, base));
+            (free, base) = (tail, base + take);
+        }
+        let built: Vec<Option<(u32, Vec<(usize, usize)>)>> = slices
             .into_par_iter()
+            .zip(regions.into_par_iter())
             .zip(kids.par_iter())
-            .map(|(s, k)| {
+            .map(|((s, mut region), k)| {
                 k.split.map(|split| {
-                    // A list built on one thread gets about the room it will take up front
-                    // (triangle trees take some 0.27 nodes per triangle), instead of doubling
-                    // its way there and leaving the smaller copies behind in the allocator;
-                    // a larger one starts as its first child's list.
-                    let mut list = if k.len < PARALLEL { Vec::with_capacity(k.len * 3 / 10 + 8) } else { Vec::new() };
-                    let root = build(s, offset + k.start, split, k.depth + 1, step, &mut list);
-                    list.shrink_to_fit();
-                    (list, root)
+                    let mut spans = Vec::new();
+                    let root = build(s, offset + k.start, split, k.depth + 1, step, &mut region, &mut spans);
+                    (root, spans)
                 })
             })
             .collect();
-        for (slot, (k, list)) in kids.iter().zip(lists).enumerate() {
-            match list {
+        for (slot, (k, built)) in kids.iter().zip(built).enumerate() {
+            match built {
                 None => node.set(slot, &k.extent.bounds, (offset + k.start) as u32, k.len as u32),
-                Some((list, root)) => {
-                    let base = out.len() as u32;
-                    node.set(slot, &k.extent.bounds, base + root, INNER);
-                    if out.is_empty() {
-                        *out = list;
-                        continue;
-                    }
-                    // Grown by each list as it is appended (and one for this node), not by all
-                    // of them at once: the lists not yet appended and the room for them are
-                    // not held together (where the allocator grows a large block in place, as
-                    // glibc's does, this keeps the peak near the tree's own size).
-                    out.reserve_exact(list.len() + 1);
-                    out.extend(list.into_iter().map(|mut m| {
-                        for c in 0..4 {
-                            if m.count[c] == INNER {
-                                m.child[c] += base;
-                            }
-                        }
-                        m
-                    }));
+                Some((child, theirs)) => {
+                    node.set(slot, &k.extent.bounds, child, INNER);
+                    spans.extend(theirs);
                 }
             }
         }
-        out.push(node);
-        (out.len() - 1) as u32
     } else {
         // Preorder: this node, then each child's subtree in slot order.
-        let me = out.len();
-        out.push(Node4::EMPTY);
+        let first = out.used - 1;
         for (slot, k) in kids.iter().enumerate() {
             match k.split {
                 None => node.set(slot, &k.extent.bounds, (offset + k.start) as u32, k.len as u32),
                 Some(split) => {
-                    let child =
-                        build(&mut items[k.start..k.start + k.len], offset + k.start, split, k.depth + 1, step, out);
+                    let mut inner = Vec::new();
+                    let child = build(
+                        &mut items[k.start..k.start + k.len],
+                        offset + k.start,
+                        split,
+                        k.depth + 1,
+                        step,
+                        out,
+                        &mut inner,
+                    );
+                    debug_assert!(inner.is_empty());
                     node.set(slot, &k.extent.bounds, child, INNER);
                 }
             }
         }
-        out[me] = node;
-        me as u32
+        if first == 0 {
+            // The region's own subtree, all of it in one stretch.
+            spans.push((out.base, out.used));
+        }
     }
+    out.nodes[me as usize - out.base] = node;
+    me
+}
+
+/// Moves the stretches `spans` (start, length: in order, apart) of `nodes` together at its front,
+/// renumbering inner children to where their nodes land, and frees the rest (the system takes back
+/// the pages past the tree); returns the new index of `root`.
+fn compact(nodes: &mut Vec<Node4>, spans: &[(usize, usize)], root: u32) -> u32 {
+    // Where each stretch lands.
+    let mut to = Vec::with_capacity(spans.len());
+    let mut end = 0;
+    for &(_, len) in spans {
+        to.push(end);
+        end += len;
+    }
+    let moved = |old: u32| {
+        let k = spans.partition_point(|&(start, _)| start <= old as usize) - 1;
+        debug_assert!((old as usize) < spans[k].0 + spans[k].1, "node {old} lies in no stretch");
+        (to[k] + old as usize - spans[k].0) as u32
+    };
+    for (&(start, len), &at) in spans.iter().zip(&to) {
+        // Each stretch lands at or before where it is, past every stretch already moved.
+        nodes.copy_within(start..start + len, at);
+        for node in &mut nodes[at..at + len] {
+            for c in 0..4 {
+                if node.count[c] == INNER {
+                    node.child[c] = moved(node.child[c]);
+                }
+            }
+        }
+    }
+    nodes.truncate(end);
+    nodes.shrink_to_fit();
+    moved(root)
 }
 
 impl Bvh {
@@ -712,5 +781,40 @@ mod tests {
         }
         // A cost per node visit keeps each pair in one leaf: fewer nodes.
         assert!(build(1, 0.5).nodes.len() < build(1, 0.0).nodes.len());
+    }
+
+    #[test]
+    fn a_tree_built_in_regions_is_packed_with_every_node_reached_once() {
+        // Enough items that the root's children are large too: regions within regions, each
+        // with room to spare, closed up afterwards.
+        let boxes: Vec<Aabb> = (0..5 * PARALLEL as u32)
+            .map(|i| {
+                let h = |k: u32| ((i.wrapping_mul(2_654_435_761).wrapping_add(k * 40_503)) % 10_007) as f32 / 10.0;
+                let min = Vec3::new(h(1), h(2), h(3));
+                Aabb { min, max: min + Vec3::splat(0.25) }
+            })
+            .collect();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap();
+        let bvh = pool.install(|| Bvh::build_with(boxes.len(), |i| boxes[i], 0.5));
+        assert_eq!(bvh.nodes.capacity(), bvh.nodes.len(), "the spare room is given back");
+        let mut reached = vec![0u32; bvh.nodes.len()];
+        let mut stack = vec![bvh.root];
+        while let Some(at) = stack.pop() {
+            reached[at as usize] += 1;
+            let node = &bvh.nodes[at as usize];
+            stack.extend((0..4).filter(|&k| node.count[k] == INNER).map(|k| node.child[k]));
+        }
+        let (missed, twice) = (reached.iter().filter(|&&r| r == 0).count(), reached.iter().filter(|&&r| r > 1).count());
+        assert!(missed == 0 && twice == 0, "{missed} nodes unreached (gaps left in), {twice} reached twice");
+        // And every item is found where its box is: a ray down through each box's centre.
+        for (i, b) in boxes.iter().enumerate().step_by(997) {
+            let c = b.centre();
+            let mut found = false;
+            bvh.traverse(c + Vec3::Z * 2000.0, -Vec3::Z, 4000.0, |item, tmax| {
+                found |= item == i as u32;
+                tmax
+            });
+            assert!(found, "item {i} not reached by a ray through its box");
+        }
     }
 }
