@@ -68,7 +68,8 @@ impl Bvh {
         }
         let mut items: Vec<Item> =
             (0..n).into_par_iter().map(|i| Item { bounds: bounds(i), index: i as u32 }).collect();
-        let extent = Extent::of(&items);
+        // On every thread: unions are exact, so the extent is the same however they share it.
+        let extent = items.par_chunks(PARALLEL / 2).map(Extent::of).reduce(|| Extent::EMPTY, |a, b| a.union(b));
         let (nodes, root, indices) = match plan(&mut items, extent, 0, step) {
             Some(split) => {
                 // Room for the largest tree over n items (see `room`), zeroed and so committed
