@@ -342,6 +342,9 @@ fn room(n: usize) -> usize {
     n.saturating_sub(1).max(1)
 }
 
+/// Stretches of the node array in use: (start, length), in order.
+type Spans = Vec<(usize, usize)>;
+
 /// Where a subtree's nodes go: a stretch of the tree's node array (`nodes[0]` is node `base`)
 /// with [`room`] for the subtree, filled from the front.
 struct Region<'a> {
@@ -378,7 +381,7 @@ fn build(
     depth: usize,
     step: f32,
     out: &mut Region,
-    spans: &mut Vec<(usize, usize)>,
+    spans: &mut Spans,
 ) -> u32 {
     let n = items.len();
     // The two halves of a split range, each planned (on two threads for a large range).
@@ -429,7 +432,7 @@ fn build(
             regions.push(Region::new(head, base));
             (free, base) = (tail, base + take);
         }
-        let built: Vec<Option<(u32, Vec<(usize, usize)>)>> = slices
+        let built: Vec<Option<(u32, Spans)>> = slices
             .into_par_iter()
             .zip(regions.into_par_iter())
             .zip(kids.par_iter())
