@@ -279,20 +279,28 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize, step: f32) -> Option<(
     } else {
         bin_all(items)
     };
+    // The sweep goes over the bins that hold items: a split after an empty bin divides the items
+    // as the split after the last full bin before it does, at the same cost, and the first of
+    // equal costs is kept, so skipping them changes nothing (a small range, most of whose bins
+    // are empty, is swept at the cost of its items, not of all the bins).
+    let full: arrayvec::ArrayVec<usize, BINS> = (0..BINS).filter(|&k| bins[k].1 > 0).collect();
+    // right[j]: the items of the full bins from the j-th on.
     let mut right = [(Extent::EMPTY, 0usize); BINS];
     let mut acc = (Extent::EMPTY, 0);
-    for k in (1..BINS).rev() {
-        acc = (acc.0.union(bins[k].0), acc.1 + bins[k].1);
-        right[k] = acc;
+    for j in (1..full.len()).rev() {
+        let bin = bins[full[j]];
+        acc = (acc.0.union(bin.0), acc.1 + bin.1);
+        right[j] = acc;
     }
-    let (mut best, mut best_cost, mut best_left) = (0, f32::INFINITY, Extent::EMPTY);
+    let (mut best, mut best_cost, mut best_left, mut best_right) = (0, f32::INFINITY, Extent::EMPTY, Extent::EMPTY);
     let mut acc = (Extent::EMPTY, 0);
-    for k in 0..BINS - 1 {
-        acc = (acc.0.union(bins[k].0), acc.1 + bins[k].1);
-        let (r, rn) = right[k + 1];
+    for j in 0..full.len().saturating_sub(1) {
+        let bin = bins[full[j]];
+        acc = (acc.0.union(bin.0), acc.1 + bin.1);
+        let (r, rn) = right[j + 1];
         let cost = acc.0.bounds.half_area() * acc.1 as f32 + r.bounds.half_area() * rn as f32;
         if acc.1 > 0 && acc.1 < n && cost < best_cost {
-            (best, best_cost, best_left) = (k + 1, cost, acc.0);
+            (best, best_cost, best_left, best_right) = (full[j] + 1, cost, acc.0, r);
         }
     }
     let area = extent.bounds.half_area();
@@ -317,7 +325,7 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize, step: f32) -> Option<(
         lo += 1;
         hi -= 1;
     }
-    Some((lo, best_left, right[best].0))
+    Some((lo, best_left, best_right))
 }
 
 /// A child of a 4-wide node during the build: its items (a range of the node's), their extent,
