@@ -72,15 +72,21 @@ impl Bvh {
         let extent = items.par_chunks(PARALLEL / 2).map(Extent::of).reduce(|| Extent::EMPTY, |a, b| a.union(b));
         let (nodes, root, indices) = match plan(&mut items, extent, 0, step) {
             Some(split) => {
-                // Room for the largest tree over n items (see `room`), zeroed and so committed
-                // by the system only where nodes are written: no list of nodes is ever joined to
-                // another (which held both at once, the build's peak).
-                let mut nodes: Vec<Node4> = bytemuck::zeroed_vec(room(n));
+                // On several threads: room for the largest tree over n items (see `room`),
+                // zeroed, so that where the system maps a large zeroed block lazily (Linux with
+                // glibc) only the pages nodes are written on are committed, and no list of nodes
+                // is ever joined to another (which held both at once, the build's peak). On one
+                // thread, and in the browser (whose memory only grows), one list grown in
+                // preorder: the layout the regions come to once moved together.
+                let grow = cfg!(target_arch = "wasm32") || rayon::current_num_threads() == 1;
+                let mut nodes: Vec<Node4> =
+                    if grow { Vec::with_capacity(n * 3 / 10 + 8) } else { bytemuck::zeroed_vec(room(n)) };
+                let store = if grow { Store::Grow(&mut nodes) } else { Store::Room(&mut nodes[..]) };
                 let mut spans = Vec::new();
-                let root = build(&mut items, 0, split, 1, step, &mut Region::new(&mut nodes, 0), &mut spans);
+                let root = build(&mut items, 0, split, 1, step, &mut Region { store, base: 0, used: 0 }, &mut spans);
                 // The item boxes go before the gaps are closed: moving a stretch writes pages
-                // of the array not yet written, while the pages it leaves are given back only
-                // once the array is cut to the tree's size.
+                // of the array not yet written, while (with glibc) the pages it leaves are given
+                // back only once the array is cut to the tree's size.
                 let indices = leaf_items(items);
                 let root = compact(&mut nodes, &spans, root);
                 (nodes, root, indices)
@@ -347,30 +353,53 @@ fn leaf_items(items: Vec<Item>) -> Vec<u32> {
 /// The most nodes a tree over `n` (at least 2) items can have: every node has at least two
 /// children and every leaf at least one item, so there are fewer nodes than items.
 fn room(n: usize) -> usize {
-    n.saturating_sub(1).max(1)
+    n - 1
 }
 
 /// Stretches of the node array in use: (start, length), in order.
 type Spans = Vec<(usize, usize)>;
 
-/// Where a subtree's nodes go: a stretch of the tree's node array (`nodes[0]` is node `base`)
-/// with [`room`] for the subtree, filled from the front.
+/// Where a subtree's nodes go, filled from the front; its first is node `base`.
 struct Region<'a> {
-    nodes: &'a mut [Node4],
+    store: Store<'a>,
     base: usize,
     used: usize,
 }
 
-impl<'a> Region<'a> {
-    fn new(nodes: &'a mut [Node4], base: usize) -> Self {
-        Region { nodes, base, used: 0 }
-    }
+/// The memory of a [`Region`].
+enum Store<'a> {
+    /// A stretch of the room array with [`room`] for the subtree (`[0]` is node `base`): cut
+    /// into regions for subtrees built at once.
+    Room(&'a mut [Node4]),
+    /// The whole node list, grown as nodes come: subtrees are built one after another.
+    Grow(&'a mut Vec<Node4>),
+}
 
+impl Region<'_> {
     /// Writes `node` at the next free place; its node index.
     fn push(&mut self, node: Node4) -> u32 {
-        self.nodes[self.used] = node;
+        match &mut self.store {
+            Store::Room(nodes) => nodes[self.used] = node,
+            Store::Grow(nodes) => nodes.push(node),
+        }
         self.used += 1;
         (self.base + self.used - 1) as u32
+    }
+
+    /// Writes `node` as node `at` (one pushed before).
+    fn set(&mut self, at: u32, node: Node4) {
+        match &mut self.store {
+            Store::Room(nodes) => nodes[at as usize - self.base] = node,
+            Store::Grow(nodes) => nodes[at as usize - self.base] = node,
+        }
+    }
+
+    /// The room past the nodes written, to cut into regions; `None` for a grown list.
+    fn rest(&mut self) -> Option<&mut [Node4]> {
+        match &mut self.store {
+            Store::Room(nodes) => Some(&mut nodes[self.used..]),
+            Store::Grow(_) => None,
+        }
     }
 }
 
@@ -418,13 +447,16 @@ fn build(
     }
     let mut node = Node4::EMPTY;
     let me = out.push(Node4::EMPTY);
-    if n >= PARALLEL {
-        // This node ends its region's first stretch; each inner child's subtree is built at once
-        // into a region of its own, cut from the rest of this one in slot order. (This node is
-        // its region's first: a large range is the root's, or a child's of another large range,
-        // which has a region of its own.)
-        debug_assert_eq!(out.used, 1);
-        spans.push((out.base, 1));
+    // This node is its region's first when the range is large: a large range is the root's, or a
+    // child's of another large range, which has a region of its own.
+    // Whether this node is its region's first (the region's subtree is then this node's).
+    let first = me as usize == out.base;
+    let free = if n >= PARALLEL { out.rest() } else { None };
+    if let Some(mut free) = free {
+        // This node is its region's first stretch; each inner child's subtree is built at once
+        // into a region of its own, cut from the rest of this one in slot order.
+        assert!(first, "a large range starts its region");
+        spans.push((me as usize, 1));
         let mut slices = Vec::with_capacity(4);
         let mut rest = items;
         for k in &kids {
@@ -433,11 +465,11 @@ fn build(
             rest = tail;
         }
         let mut regions = Vec::with_capacity(4);
-        let (mut free, mut base) = (&mut out.nodes[1..], out.base + 1);
+        let mut base = me as usize + 1;
         for k in &kids {
             let take = if k.split.is_some() { room(k.len) } else { 0 };
             let (head, tail) = std::mem::take(&mut free).split_at_mut(take);
-            regions.push(Region::new(head, base));
+            regions.push(Region { store: Store::Room(head), base, used: 0 });
             (free, base) = (tail, base + take);
         }
         let built: Vec<Option<(u32, Spans)>> = slices
@@ -463,7 +495,6 @@ fn build(
         }
     } else {
         // Preorder: this node, then each child's subtree in slot order.
-        let first = out.used - 1;
         for (slot, k) in kids.iter().enumerate() {
             match k.split {
                 None => node.set(slot, &k.extent.bounds, (offset + k.start) as u32, k.len as u32),
@@ -483,18 +514,18 @@ fn build(
                 }
             }
         }
-        if first == 0 {
+        if first {
             // The region's own subtree, all of it in one stretch.
             spans.push((out.base, out.used));
         }
     }
-    out.nodes[me as usize - out.base] = node;
+    out.set(me, node);
     me
 }
 
 /// Moves the stretches `spans` (start, length: in order, apart) of `nodes` together at its front,
-/// renumbering inner children to where their nodes land, and frees the rest (the system takes back
-/// the pages past the tree); returns the new index of `root`.
+/// renumbering inner children to where their nodes land, and frees the rest (glibc gives the
+/// pages past the tree back to the system); returns the new index of `root`.
 fn compact(nodes: &mut Vec<Node4>, spans: &[(usize, usize)], root: u32) -> u32 {
     // Where each stretch lands.
     let mut to = Vec::with_capacity(spans.len());
@@ -808,11 +839,18 @@ mod tests {
             .collect();
         let pool = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap();
         let bvh = pool.install(|| Bvh::build_with(boxes.len(), |i| boxes[i], 0.5));
-        assert_eq!(bvh.nodes.capacity(), bvh.nodes.len(), "the spare room is given back");
+        assert_eq!(bvh.nodes.capacity(), bvh.nodes.len(), "the array is cut to the tree's size");
+        // The root's children hold more than `PARALLEL` items each: regions within regions.
+        let large = (0..4).filter(|&k| bvh.nodes[bvh.root as usize].count[k] == INNER).count();
+        assert_eq!(large, 4, "the root's children are inner nodes");
         let mut reached = vec![0u32; bvh.nodes.len()];
         let mut stack = vec![bvh.root];
         while let Some(at) = stack.pop() {
             reached[at as usize] += 1;
+            if reached[at as usize] > 1 {
+                // A link back: stop before it loops.
+                break;
+            }
             let node = &bvh.nodes[at as usize];
             stack.extend((0..4).filter(|&k| node.count[k] == INNER).map(|k| node.child[k]));
         }

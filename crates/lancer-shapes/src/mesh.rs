@@ -221,7 +221,7 @@ impl Mesh {
             return Err(MeshError::Empty);
         }
         let skipped = before - triangles.len();
-        // Windings first: the edge sort and the triangle boxes are not in memory at once.
+        // Windings first: their tables and the triangle boxes are not in memory at once.
         let closed = crate::topology::orient(&positions, &mut triangles);
         let triangle_box = |t: &[u32; 3]| {
             t.iter().fold(Aabb::EMPTY, |b, &i| b.union(Aabb { min: positions[i as usize], max: positions[i as usize] }))
@@ -438,7 +438,7 @@ pub(crate) mod tests {
     #[test]
     fn a_mesh_built_on_several_threads_gives_the_brute_force_hits() {
         // A rippled grid of 2 · 130 · 130 triangles: more than the build splits on two threads,
-        // so the root is not the first node and subtrees were appended from several lists.
+        // so subtrees are built at once in regions of the node array, then moved together.
         let n = 130;
         let mut positions = Vec::new();
         for j in 0..=n {
