@@ -31,8 +31,10 @@ pub fn surface_color(
 
 /// [`surface_color`] of eight hits on one object (of `material`, shaped `shape`, not a mesh)
 /// at the object-space points `local`: the same colours, with the checker's parity taken eight
-/// lanes at a time (the same arithmetic as [`odd_cell`]'s). Only the lanes set in `on` are
-/// looked at; the others come out as anything.
+/// lanes at a time within 2^23 of the origin (every scene's floor: there `f`, a floor, is a
+/// whole number, `f / 2` is exact, and `f` is odd where its half has a fraction), each lane by
+/// [`odd_cell`] beyond. Only the lanes set in `on` are looked at; the others come out as
+/// anything.
 pub(crate) fn surface_colors(
     material: &Material,
     shape: &Shape,
@@ -40,7 +42,7 @@ pub(crate) fn surface_colors(
     on: u8,
     textures: &[Texture],
 ) -> lancer_core::rays::Packet {
-    use wide::{CmpEq, CmpLt, f32x8};
+    use wide::{CmpEq, CmpGt, CmpLt, f32x8};
     let lane = |k: usize| Vec3::new(local[0][k], local[1][k], local[2][k]);
     let each = |out: &mut lancer_core::rays::Packet| {
         for k in crate::lanes::set(on) {
@@ -61,9 +63,17 @@ pub(crate) fn surface_colors(
                 each(&mut out);
                 return out;
             }
-            let odd = c.iter().fold(f32x8::ZERO, |parity, v| {
-                let half = v.floor() * f32x8::splat(0.5);
-                parity ^ !half.floor().cmp_eq(half)
+            // `v.floor()` for |v| < 2^23 (every lane here: `near`): truncated through the
+            // integers, one less where that went up; exact there, and without the eight calls
+            // to `floorf` wide's floor makes on the baseline x86-64 build (a floor's sign of
+            // zero may differ, which no comparison below sees).
+            let floor = |v: f32x8| {
+                let t = v.fast_trunc_int().round_float();
+                t - (t.cmp_gt(v) & f32x8::ONE)
+            };
+            let odd = c.iter().fold(f32x8::ZERO, |parity, &v| {
+                let half = floor(v) * f32x8::splat(0.5);
+                parity ^ !floor(half).cmp_eq(half)
             });
             let (even, odd_colour) = (splat(material.color), splat(other));
             std::array::from_fn(|a| odd.blend(f32x8::new(odd_colour[a]), f32x8::new(even[a])).to_array())
@@ -77,18 +87,10 @@ pub(crate) fn surface_colors(
 }
 
 /// Whether the cell of `c` is odd: the parity of the sum of its coordinates' [`cell`]s
-/// (integer arithmetic, wrapping: far cells keep alternating). Within 2^23 of the origin
-/// (every scene's floor) by float arithmetic on the three axes at once, exact there: `f` is
-/// a whole number, `f / 2` is exact, and `f` is odd where its half has a fraction.
+/// (integer arithmetic, wrapping: far cells keep alternating; infinite and NaN coordinates
+/// saturated as the cast saturates).
 #[inline]
 fn odd_cell(c: Vec3) -> bool {
-    // (A NaN fails the comparison, and takes the integer path.)
-    if c.abs().cmplt(Vec3::splat(8_388_608.0)).all() {
-        let f = c.floor();
-        let half = f * 0.5;
-        return half.floor().cmpne(half).bitmask().count_ones() & 1 == 1;
-    }
-    // Far away, infinite or NaN: the integers themselves, saturated as the cast saturates.
     cell(c.x).wrapping_add(cell(c.y)).wrapping_add(cell(c.z)) & 1 == 1
 }
 
