@@ -388,10 +388,11 @@ impl Region<'_> {
 
     /// Writes `node` as node `at` (one pushed before).
     fn set(&mut self, at: u32, node: Node4) {
-        match &mut self.store {
-            Store::Room(nodes) => nodes[at as usize - self.base] = node,
-            Store::Grow(nodes) => nodes[at as usize - self.base] = node,
-        }
+        let nodes: &mut [Node4] = match &mut self.store {
+            Store::Room(nodes) => nodes,
+            Store::Grow(nodes) => nodes,
+        };
+        nodes[at as usize - self.base] = node;
     }
 
     /// The room past the nodes written, to cut into regions; `None` for a grown list.
@@ -499,7 +500,7 @@ fn build(
             match k.split {
                 None => node.set(slot, &k.extent.bounds, (offset + k.start) as u32, k.len as u32),
                 Some(split) => {
-                    let mut inner = Vec::new();
+                    // (Not its region's first: adds no stretch.)
                     let child = build(
                         &mut items[k.start..k.start + k.len],
                         offset + k.start,
@@ -507,9 +508,8 @@ fn build(
                         k.depth + 1,
                         step,
                         out,
-                        &mut inner,
+                        spans,
                     );
-                    debug_assert!(inner.is_empty());
                     node.set(slot, &k.extent.bounds, child, INNER);
                 }
             }
@@ -539,9 +539,17 @@ fn compact(nodes: &mut Vec<Node4>, spans: &[(usize, usize)], root: u32) -> u32 {
         debug_assert!((old as usize) < spans[k].0 + spans[k].1, "node {old} lies in no stretch");
         (to[k] + old as usize - spans[k].0) as u32
     };
+    if spans.iter().zip(&to).all(|(&(start, _), &at)| start == at) {
+        // Already together (one stretch, or a list grown in preorder): no link changes.
+        nodes.truncate(end);
+        nodes.shrink_to_fit();
+        return root;
+    }
     for (&(start, len), &at) in spans.iter().zip(&to) {
         // Each stretch lands at or before where it is, past every stretch already moved.
-        nodes.copy_within(start..start + len, at);
+        if start != at {
+            nodes.copy_within(start..start + len, at);
+        }
         for node in &mut nodes[at..at + len] {
             for c in 0..4 {
                 if node.count[c] == INNER {

@@ -116,6 +116,7 @@ fn neighbours(corners: &[[u32; 3]], vertices: usize) -> (Vec<[u32; 3]>, bool) {
     // Each triangle's neighbour across each edge that exactly two triangles share, in the order
     // of the edges' keys: the order a sort of all edges by key meets them in, and so the order
     // in which `orient` walks a piece.
+    let at_end = |v: u32| &at[first[v as usize] as usize..first[v as usize + 1] as usize];
     let across: Vec<([u32; 3], bool)> = corners
         .par_iter()
         .enumerate()
@@ -126,7 +127,6 @@ fn neighbours(corners: &[[u32; 3]], vertices: usize) -> (Vec<[u32; 3]>, bool) {
                 let (a, b) = (c[e], c[(e + 1) % 3]);
                 let (lo, hi) = (a.min(b), a.max(b));
                 // Through the end with fewer triangles (a fan's hub has them all).
-                let at_end = |v: u32| &at[first[v as usize] as usize..first[v as usize + 1] as usize];
                 let (near, far) = if at_end(lo).len() <= at_end(hi).len() { (lo, hi) } else { (hi, lo) };
                 let mut sharing = at_end(near).iter().filter(|&&u| corners[u as usize].contains(&far));
                 match (sharing.next(), sharing.next(), sharing.next()) {
