@@ -62,28 +62,30 @@ fn run(d: &Driver, url: &str, scene: &Path, original: &str, screenshot: &Path) -
     d.call("POST", "/url", json!({ "url": url }))?;
     let mut generation =
         d.until("the first full image", &FULL_AFTER.replace("arguments[0]", "0"))?.as_i64().unwrap_or(0);
+    // The page shows each image's 8-bit levels from a table: the same levels as the formula's.
+    let levels = d.js("return window.studio.checkLevels()", json!([]))?;
+    if levels["wrong"].as_array().is_none_or(|w| !w.is_empty()) || levels["checked"].as_u64().unwrap_or(0) < 1_000_000 {
+        bail!("the page's display levels differ from the sRGB formula's: {levels}");
+    }
+    println!("display levels: the table's equal the formula's at {} values", levels["checked"]);
     let hash = |name: &str| d.js("return window.studio.hash(arguments[0])", json!([name]));
     let hashes = |names: &[&str]| -> Result<Vec<Value>> { names.iter().map(|n| hash(n)).collect() };
-    let mut edit = |what: &str, selector: &str, value: Value| -> Result<(f64, f64, f64)> {
+    let mut edit = |what: &str, selector: &str, value: Value| -> Result<(f64, f64, f64, f64)> {
         let ok = d.js(SET, json!([selector, value]))?;
         if ok != json!(true) {
             bail!("{what}: {ok}");
         }
         generation = d.until(what, &FULL_AFTER.replace("arguments[0]", &generation.to_string()))?.as_i64().unwrap_or(0);
         // Time from the edit to the first coarse and to the full frame of a newer generation.
-        let t = d.js(
-            "const s = window.studio, a = s.arrivals.filter((x) => x.at >= s.editAt); \
-             const c = a.find((x) => x.coarse), f = a.find((x) => !x.coarse); \
-             return [c ? c.at - s.editAt : -1, f ? f.at - s.editAt : -1];",
-            json!([]),
-        )?;
+        let t = d.js(crate::webdriver::SINCE_EDIT, json!([]))?;
         let render = d.js("return window.studio.frame().seconds", json!([]))?.as_f64().unwrap_or(f64::NAN);
-        Ok((t[0].as_f64().unwrap_or(-1.0), t[1].as_f64().unwrap_or(-1.0), render * 1000.0))
+        let ms = |k: usize| t[k].as_f64().unwrap_or(-1.0);
+        Ok((ms(0), ms(1), ms(2), render * 1000.0))
     };
 
     // 1. A material's diff: the diffuse image changes, the ambient one not at all.
     let before = hashes(&["ambient", "diffuse"])?;
-    let (coarse, full, render) = edit(
+    let (coarse, full, received, render) = edit(
         "the image after moving floor's diff",
         "fieldset[data-name='floor'] input[data-param='diff']",
         json!("0.3"),
@@ -99,8 +101,8 @@ fn run(d: &Driver, url: &str, scene: &Path, original: &str, screenshot: &Path) -
         );
     }
     println!(
-        "diff slider: diffuse image changed, ambient bit-identical; coarse image after {coarse:.0} ms, full after {full:.0} ms \
-         (its render on the server {render:.0} ms)"
+        "diff slider: diffuse image changed, ambient bit-identical; coarse image drawn after {coarse:.0} ms, full drawn after {full:.0} ms \
+         (received after {received:.0} ms; its render on the server {render:.0} ms)"
     );
 
     // 2. Switching a term off takes its image out of the sum.

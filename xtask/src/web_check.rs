@@ -317,12 +317,7 @@ fn run(d: &Driver, port: u16, docs: &Path) -> Result<()> {
         bail!("the floor's diff slider: {ok}");
     }
     full_after(d, "the image after the diff slider", g)?;
-    let t = d.js(
-        "const s = window.studio, a = s.arrivals.filter((x) => x.at >= s.editAt); \
-         const c = a.find((x) => x.coarse), f = a.find((x) => !x.coarse); \
-         return [c ? c.at - s.editAt : -1, f ? f.at - s.editAt : -1];",
-        json!([]),
-    )?;
+    let t = d.js(crate::webdriver::SINCE_EDIT, json!([]))?;
     let after = (hash("ambient")?, hash("diffuse")?);
     if before.0 != after.0 || before.1 == after.1 {
         bail!(
@@ -590,12 +585,7 @@ pub fn measure(runs: usize, native: &mut dyn FnMut(u32) -> Result<f64>) -> Resul
                 ]),
             )?;
             full_after(&d, "the image after a slider move", before)?;
-            let t = d.js(
-                "const s = window.studio, a = s.arrivals.filter((x) => x.at >= s.editAt); \
-                 const c = a.find((x) => x.coarse), f = a.find((x) => !x.coarse); \
-                 return [c ? c.at - s.editAt : -1, f ? f.at - s.editAt : -1];",
-                json!([]),
-            )?;
+            let t = d.js(crate::webdriver::SINCE_EDIT, json!([]))?;
             coarse.push(t[0].as_f64().unwrap_or(f64::NAN));
             full.push(t[1].as_f64().unwrap_or(f64::NAN));
         }

@@ -22,7 +22,7 @@ use axum::routing::get;
 use serde::Deserialize;
 
 use crate::server::Timeouts;
-use crate::worker::{EVERY_PAGE, Shared, lock};
+use crate::worker::{EVERY_PAGE, Sent, Shared, lock};
 
 const INDEX: &str = crate::PAGE[0].1;
 const SCRIPT: &str = crate::PAGE[1].1;
@@ -213,13 +213,16 @@ async fn socket(Axum(g): Axum<Guard>, headers: HeaderMap, ws: WebSocketUpgrade) 
     ws.max_message_size(LIMIT).max_frame_size(LIMIT).on_upgrade(move |s| session(g.shared, s, g.timeouts))
 }
 
-/// Sends a frame's messages; `false` once the page is gone.
-async fn send_frame(ws: &mut WebSocket, frame: Option<crate::worker::FrameBytes>) -> bool {
-    for m in frame.iter().flat_map(|f| f.iter()) {
-        if ws.send(Message::Binary(m.clone().into())).await.is_err() {
+/// Sends a frame's messages (its images the page has not been sent yet); `false` once the page
+/// is gone.
+async fn send_frame(ws: &mut WebSocket, sent: &mut Sent, frame: Option<crate::worker::FrameBytes>) -> bool {
+    let Some(frame) = frame else { return true };
+    for m in sent.messages(&frame) {
+        if ws.send(Message::Binary(m.into())).await.is_err() {
             return false;
         }
     }
+    sent.sent(frame);
     true
 }
 
@@ -271,8 +274,10 @@ async fn talk(
     if ws.send(Message::Text(shared.hello().into())).await.is_err() {
         return;
     }
+    // What this page has been sent: the images of a newer frame that it already has are not sent again.
+    let mut sent = Sent::default();
     let latest = frames.borrow_and_update().clone();
-    if !send_frame(ws, latest).await {
+    if !send_frame(ws, &mut sent, latest).await {
         return;
     }
     let mut pings = tokio::time::interval_at(start + ping, ping);
@@ -328,7 +333,7 @@ async fn talk(
                 let frame = frames.borrow_and_update().clone();
                 // A tab showing its own edits is not shown the file's state.
                 let own = tab.as_ref().is_some_and(|t| t.tab.own.load(Ordering::SeqCst));
-                if !own && !send_frame(ws, frame).await {
+                if !own && !send_frame(ws, &mut sent, frame).await {
                     return;
                 }
             }
@@ -339,7 +344,7 @@ async fn talk(
                 }
             } => {
                 let frame = tab.as_ref().and_then(|t| t.tab.take());
-                if frame.is_some() && !send_frame(ws, frame).await {
+                if frame.is_some() && !send_frame(ws, &mut sent, frame).await {
                     return;
                 }
             }

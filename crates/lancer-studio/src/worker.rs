@@ -23,14 +23,127 @@ use tokio::sync::{Notify, broadcast, mpsc, watch};
 use crate::State;
 use crate::server::{Loader, SceneSlot};
 
-/// A rendered frame as sent to the page, in messages of at most [`CHUNK`] floats: each a
-/// little-endian `u32` header length, the JSON header (`generation`, `width`, `height`, `coarse`,
-/// `seconds`, `layers`, `offset` and `count` of the floats it carries, `total`), then the floats:
-/// every layer's linear RGB one after the other.
-pub(crate) type FrameBytes = Arc<Vec<Vec<u8>>>;
+/// A rendered frame as the render thread hands it to the pages' connections; each connection
+/// sends it as the messages [`Sent::messages`] makes.
+pub(crate) struct Rendered {
+    generation: u64,
+    coarse: bool,
+    /// The render's time.
+    seconds: f64,
+    frame: Frame,
+}
+
+/// A frame for the pages' connections.
+pub(crate) type FrameBytes = Arc<Rendered>;
 
 /// Floats per message (2 MB): browsers take much larger messages badly.
 const CHUNK: usize = 512 * 1024;
+
+impl Rendered {
+    /// Its images by name, in the order their floats go: the layers, then `beauty`.
+    fn images(&self) -> impl Iterator<Item = (&str, &[glam::Vec3])> {
+        let layers = self.frame.layers.iter().map(|l| (l.name.as_str(), l.pixels.as_slice()));
+        layers.chain(std::iter::once(("beauty", self.frame.beauty.as_slice())))
+    }
+
+    /// The image called `name`, if the frame has one.
+    fn image(&self, name: &str) -> Option<&[glam::Vec3]> {
+        self.images().find(|(n, _)| *n == name).map(|(_, p)| p)
+    }
+}
+
+/// What one connection has sent its page: the last full frame. A newer full frame of the same
+/// size sends of each image only the stretch that differs from that frame's image of the same
+/// name (from its first differing float to its last), and nothing of an image that is the same
+/// to the bit: moving one material's `diff` changes the diffuse image where that material is
+/// seen, and the mirror, refraction and beauty images where it is seen in them, and no other.
+///
+/// The messages of a frame: each a little-endian `u32` header length, the JSON header
+/// (`generation`, `width`, `height`, `coarse`, `seconds`, `layers`, `sent`, `offset` and `count`
+/// of the floats it carries, `total`), spaces up to a multiple of four bytes, then the floats.
+/// `layers` names the frame's layers; `sent` lists `[name, from, to]` for the images whose
+/// floats `from..to` (linear RGB per pixel) the messages carry, one after the other, out of the
+/// layers and `beauty`. Every other float of those images is the one at the same place in the
+/// image of that name in the last full frame sent before.
+#[derive(Default)]
+pub(crate) struct Sent {
+    last_full: Option<FrameBytes>,
+}
+
+/// The stretch `from..to` of floats where `new` differs from `old` to the bit (the whole of
+/// `new` when there is no `old`); `None` when they are the same.
+fn changed(old: Option<&[glam::Vec3]>, new: &[glam::Vec3]) -> Option<(usize, usize)> {
+    let new: &[u32] = bytemuck::cast_slice(new);
+    let Some(old) = old.map(bytemuck::cast_slice::<_, u32>).filter(|o| o.len() == new.len()) else {
+        return Some((0, new.len()));
+    };
+    let from = old.iter().zip(new).position(|(a, b)| a != b)?;
+    let to = new.len() - old.iter().rev().zip(new.iter().rev()).position(|(a, b)| a != b).unwrap_or(0);
+    Some((from, to))
+}
+
+impl Sent {
+    /// The messages that send `rendered` to a page that has been sent what `self` says.
+    pub(crate) fn messages(&self, rendered: &Rendered) -> Vec<Vec<u8>> {
+        let (width, height) = (rendered.frame.width, rendered.frame.height);
+        let before = self
+            .last_full
+            .as_deref()
+            .filter(|b| !rendered.coarse && b.frame.width == width && b.frame.height == height);
+        let sent: Vec<(&str, usize, &[f32])> = rendered
+            .images()
+            .filter_map(|(name, pixels)| {
+                let (from, to) = changed(before.and_then(|b| b.image(name)), pixels)?;
+                Some((name, from, &bytemuck::cast_slice::<_, f32>(pixels)[from..to]))
+            })
+            .collect();
+        let total: usize = sent.iter().map(|(_, _, f)| f.len()).sum();
+        let layers: Vec<&str> = rendered.frame.layers.iter().map(|l| l.name.as_str()).collect();
+        let spans: Vec<(&str, usize, usize)> = sent.iter().map(|(n, from, f)| (*n, *from, from + f.len())).collect();
+        let mut messages = Vec::new();
+        for offset in (0..total.max(1)).step_by(CHUNK) {
+            let end = (offset + CHUNK).min(total);
+            let mut header = json!({
+                "generation": rendered.generation,
+                "width": width,
+                "height": height,
+                "coarse": rendered.coarse,
+                "seconds": rendered.seconds,
+                "layers": layers,
+                "sent": spans,
+                "offset": offset,
+                "count": end.saturating_sub(offset),
+                "total": total,
+            })
+            .to_string();
+            // The floats start 4-byte aligned: the page reads them where they are.
+            while !(4 + header.len()).is_multiple_of(4) {
+                header.push(' ');
+            }
+            let mut bytes = Vec::with_capacity(4 + header.len() + end.saturating_sub(offset) * 4);
+            bytes.extend_from_slice(&(header.len() as u32).to_le_bytes());
+            bytes.extend_from_slice(header.as_bytes());
+            // The part of each stretch's floats that falls in offset..end.
+            let mut start = 0;
+            for (_, _, floats) in &sent {
+                let (from, to) = (offset.max(start), end.min(start + floats.len()));
+                if from < to {
+                    bytes.extend_from_slice(bytemuck::cast_slice(&floats[from - start..to - start]));
+                }
+                start += floats.len();
+            }
+            messages.push(bytes);
+        }
+        messages
+    }
+
+    /// Notes that every message of `rendered` has been sent.
+    pub(crate) fn sent(&mut self, rendered: FrameBytes) {
+        if !rendered.coarse {
+            self.last_full = Some(rendered);
+        }
+    }
+}
 
 /// The viewer that is every page: the shared state's renders (in a read-only studio, the file's
 /// state's) go to all of them. A read-only studio's tabs are numbered from 1.
@@ -403,7 +516,12 @@ fn render(shared: &Shared, job: &Job, viewer: &Viewer, cancel: &AtomicBool) -> b
     if cancel.load(Ordering::SeqCst) {
         return false;
     }
-    let messages = Arc::new(frame_messages(&frame, job, start.elapsed()));
+    let messages = Arc::new(Rendered {
+        generation: job.generation,
+        coarse: job.coarse,
+        seconds: start.elapsed().as_secs_f64(),
+        frame,
+    });
     match viewer {
         // Kept for pages that connect later, even when none is listening now.
         Viewer::Every => {
@@ -421,34 +539,6 @@ fn render(shared: &Shared, job: &Job, viewer: &Viewer, cancel: &AtomicBool) -> b
         }
     }
     true
-}
-
-/// A frame as the messages of [`FrameBytes`].
-fn frame_messages(frame: &Frame, job: &Job, seconds: Duration) -> Vec<Vec<u8>> {
-    let floats: Vec<f32> =
-        frame.layers.iter().flat_map(|l| bytemuck::cast_slice::<_, f32>(&l.pixels).iter().copied()).collect();
-    let mut messages = Vec::new();
-    for offset in (0..floats.len().max(1)).step_by(CHUNK) {
-        let part = &floats[offset.min(floats.len())..(offset + CHUNK).min(floats.len())];
-        let header = json!({
-            "generation": job.generation,
-            "width": frame.width,
-            "height": frame.height,
-            "coarse": job.coarse,
-            "seconds": seconds.as_secs_f64(),
-            "layers": frame.layers.iter().map(|l| l.name.clone()).collect::<Vec<_>>(),
-            "offset": offset,
-            "count": part.len(),
-            "total": floats.len(),
-        })
-        .to_string();
-        let mut bytes = Vec::with_capacity(4 + header.len() + part.len() * 4);
-        bytes.extend_from_slice(&(header.len() as u32).to_le_bytes());
-        bytes.extend_from_slice(header.as_bytes());
-        bytes.extend_from_slice(bytemuck::cast_slice(part));
-        messages.push(bytes);
-    }
-    messages
 }
 
 /// Reloads the scene whenever one of its files changes (size or time), and tells the pages.
@@ -542,6 +632,100 @@ mod tests {
         let cancel = Arc::new(AtomicBool::new(false));
         q.running = Some((viewer, cancel.clone()));
         (viewer, job, cancel)
+    }
+
+    fn rendered(generation: u64, coarse: bool, (width, height): (u32, u32), layers: &[(&str, f32)]) -> FrameBytes {
+        let n = (width * height) as usize;
+        // Each layer a ramp over the pixels from its value; the beauty image their sum.
+        let image = |v: f32| (0..n).map(|i| glam::Vec3::splat(v + i as f32)).collect::<Vec<_>>();
+        let layers: Vec<lancer_core::Layer> =
+            layers.iter().map(|(name, v)| lancer_core::Layer { name: (*name).into(), pixels: image(*v) }).collect();
+        let beauty = (0..n).map(|i| layers.iter().map(|l| l.pixels[i]).sum()).collect();
+        let frame = Frame { width, height, layers, beauty, stats: Default::default() };
+        Arc::new(Rendered { generation, coarse, seconds: 0.0, frame })
+    }
+
+    /// What a page makes of a frame's messages, as the page's script does: every image (the
+    /// layers, then beauty) by name, its stretches sent put over the last full frame's images.
+    fn receive(
+        messages: &[Vec<u8>],
+        page: &HashMap<String, Vec<f32>>,
+    ) -> (serde_json::Value, HashMap<String, Vec<f32>>) {
+        let mut floats = Vec::new();
+        let mut header = serde_json::Value::Null;
+        for m in messages {
+            let length = u32::from_le_bytes(m[..4].try_into().unwrap()) as usize;
+            assert!((4 + length).is_multiple_of(4), "the floats are not 4-byte aligned");
+            header = serde_json::from_slice(&m[4..4 + length]).unwrap();
+            assert_eq!(header["offset"].as_u64(), Some(floats.len() as u64));
+            let part: Vec<f32> = m[4 + length..].chunks(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+            assert_eq!(header["count"].as_u64(), Some(part.len() as u64));
+            floats.extend(part);
+        }
+        assert_eq!(header["total"].as_u64(), Some(floats.len() as u64));
+        let mut images = page.clone();
+        let mut pos = 0;
+        for span in header["sent"].as_array().unwrap() {
+            let (name, from, to) =
+                (span[0].as_str().unwrap(), span[1].as_u64().unwrap() as usize, span[2].as_u64().unwrap() as usize);
+            let image = images.entry(name.to_owned()).or_default();
+            image.resize(image.len().max(to), f32::NAN);
+            image[from..to].copy_from_slice(&floats[pos..pos + to - from]);
+            pos += to - from;
+        }
+        assert_eq!(pos, floats.len());
+        (header, images)
+    }
+
+    fn images(r: &Rendered) -> HashMap<String, Vec<f32>> {
+        r.images().map(|(n, p)| (n.to_owned(), bytemuck::cast_slice::<_, f32>(p).to_vec())).collect()
+    }
+
+    #[test]
+    fn a_full_frame_sends_only_what_changed_since_the_last_full_frame() {
+        let mut sent = Sent::default();
+        let first = rendered(1, false, (40, 30), &[("ambient", 1.0), ("diffuse", 2.0), ("background", 0.0)]);
+        let (header, page) = receive(&sent.messages(&first), &HashMap::new());
+        assert_eq!(page, images(&first));
+        assert_eq!(header["total"], 4 * 40 * 30 * 3, "a first frame sends every image whole");
+        sent.sent(first);
+        // A coarse frame is sent whole and changes nothing of what the next full frame sends.
+        let coarse = rendered(2, true, (10, 7), &[("ambient", 1.0), ("diffuse", 5.0), ("background", 0.0)]);
+        let (_, shown) = receive(&sent.messages(&coarse), &HashMap::new());
+        assert_eq!(shown, images(&coarse));
+        sent.sent(coarse);
+        // The diffuse image changed between two pixels: that stretch of it and of beauty.
+        let mut second = rendered(2, false, (40, 30), &[("ambient", 1.0), ("diffuse", 2.0), ("background", 0.0)]);
+        let frame = &mut Arc::get_mut(&mut second).unwrap().frame;
+        for i in [100, 250] {
+            frame.layers[1].pixels[i].y += 1.0;
+            frame.beauty[i].y += 1.0;
+        }
+        let (header, page) = receive(&sent.messages(&second), &page);
+        assert_eq!(page, images(&second));
+        assert_eq!(header["sent"], json!([["diffuse", 301, 752], ["beauty", 301, 752]]), "pixel 100's green to pixel 250's");
+        sent.sent(second.clone());
+        // The same frame again sends nothing; a frame of another size sends every image whole.
+        let (header, again) = receive(&sent.messages(&second), &page);
+        assert_eq!((header["total"].as_u64(), again), (Some(0), page));
+        let resized = rendered(3, false, (41, 30), &[("ambient", 1.0), ("diffuse", 2.0), ("background", 0.0)]);
+        assert_eq!(receive(&sent.messages(&resized), &HashMap::new()).1, images(&resized));
+    }
+
+    #[test]
+    fn a_frame_larger_than_a_message_is_cut_across_its_images() {
+        // 640x360 of five layers and beauty: 4 147 200 floats, eight messages.
+        let mut sent = Sent::default();
+        let first = rendered(1, false, (640, 360), &[("a", 1.0), ("b", 2.0), ("c", 3.0), ("d", 4.0), ("e", 5.0)]);
+        let messages = sent.messages(&first);
+        assert_eq!(messages.len(), (6 * 640 * 360 * 3usize).div_ceil(CHUNK));
+        assert_eq!(receive(&messages, &HashMap::new()).1, images(&first));
+        sent.sent(first);
+        let second = rendered(2, false, (640, 360), &[("a", 1.0), ("b", 7.0), ("c", 3.0), ("d", 8.0), ("e", 5.0)]);
+        let (header, page) = receive(&sent.messages(&second), &images(&second));
+        assert_eq!(page, images(&second));
+        let names: Vec<&str> = header["sent"].as_array().unwrap().iter().map(|s| s[0].as_str().unwrap()).collect();
+        assert_eq!(names, ["b", "d", "beauty"]);
     }
 
     #[test]

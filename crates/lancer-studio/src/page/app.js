@@ -114,23 +114,60 @@ function showProgress() {
   $("progress").value = progressValue;
 }
 let incoming = null; // the frame being received: { header, floats, got }
+let lastFull = null; // the last full frame received: what a newer frame's images not sent are
 
 function receiveFrame(buffer) {
   const view = new DataView(buffer);
   const length = view.getUint32(0, true);
   const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
   if (header.offset === 0 || !incoming || incoming.header.generation !== header.generation || incoming.header.coarse !== header.coarse) {
-    incoming = { header, floats: new Float32Array(header.total), got: 0 };
+    incoming = { header, floats: null, got: 0 };
   }
-  // The floats may not be 4-byte aligned in the message: copy them out.
-  incoming.floats.set(new Float32Array(buffer.slice(4 + length)), header.offset);
+  // The floats start 4-byte aligned; a frame in one message is used where it is.
+  const at = 4 + length;
+  const part = at % 4 === 0 ? new Float32Array(buffer, at, header.count) : new Float32Array(buffer.slice(at, at + 4 * header.count));
+  if (header.offset === 0 && header.count === header.total) incoming.floats = part;
+  else (incoming.floats ||= new Float32Array(header.total)).set(part, header.offset);
   incoming.got += header.count;
   if (incoming.got < header.total) return;
   const n = header.width * header.height * 3;
-  const floats = incoming.floats;
-  const layers = header.layers.map((name, i) => ({ name, data: floats.subarray(i * n, (i + 1) * n) }));
+  const floats = incoming.floats || new Float32Array(0);
   incoming = null;
-  showFrame({ width: header.width, height: header.height, coarse: header.coarse, layers, generation: header.generation, seconds: header.seconds });
+  // The stretches of each image sent, one after the other; the rest of each image is the last
+  // full frame's (the server sends only what changed since the last full frame it sent here).
+  const sent = header.sent || header.layers.map((name, i) => [name, 0, n]);
+  const before = header.sent && !header.coarse && lastFull && lastFull.width === header.width && lastFull.height === header.height ? lastFull : null;
+  const old = (name) => before && (name === "beauty" ? before.beauty : before.layers.find((l) => l.name === name)?.data);
+  const images = new Map();
+  let pos = 0;
+  for (const [name, from, to] of sent) {
+    const floatsOf = floats.subarray(pos, pos + to - from);
+    pos += to - from;
+    if (from === 0 && to === n) { images.set(name, floatsOf); continue; }
+    const base = old(name);
+    if (!base || to > n) return lostFrame(name);
+    const image = new Float32Array(base);
+    image.set(floatsOf, from);
+    images.set(name, image);
+  }
+  const image = (name) => images.get(name) || old(name);
+  const layers = header.layers.map((name) => ({ name, data: image(name) }));
+  const missing = layers.find((l) => !l.data);
+  if (missing) return lostFrame(missing.name);
+  const f = { width: header.width, height: header.height, coarse: header.coarse, layers, generation: header.generation, seconds: header.seconds };
+  // The beauty image as the server summed it (the same bits as the page's sum), when it has it.
+  const beauty = image("beauty");
+  if (beauty) f.beauty = beauty;
+  // The thumbnails of the images the same as before.
+  if (before && before.thumbs) f.thumbs = new Map([...before.thumbs].filter(([name]) => !images.has(name)));
+  if (!f.coarse) lastFull = f;
+  showFrame(f);
+}
+
+// A frame that names an image this page does not have (which the server never sends).
+function lostFrame(name) {
+  $("error").hidden = false;
+  $("error").textContent = `the studio sent a frame without its ${name} image: reload the page`;
 }
 
 function showFrame(f) {
@@ -139,11 +176,14 @@ function showFrame(f) {
   clearTimeout(progressTimer);
   progressTimer = null;
   progressShown = performance.now();
-  studio.arrivals.push({ generation: f.generation, coarse: f.coarse, at: performance.now() });
+  // When the frame came, and when it was drawn (its image on the canvas): what the user waits for.
+  const arrival = { generation: f.generation, coarse: f.coarse, at: performance.now(), drawn: null };
+  studio.arrivals.push(arrival);
   $("error").hidden = true;
   $("progress").value = f.coarse ? 0 : 1;
   status(`${f.coarse ? "coarse" : "full"} image in ${(f.seconds * 1000).toFixed(0)} ms${LOCAL ? ` · ${engine.workers} workers${engine.simd ? ", SIMD" : ""}` : ""}`);
   draw();
+  arrival.drawn = performance.now();
 }
 
 // What the browser test (cargo xtask studio-check) reads: frames as they arrive, and a
@@ -187,6 +227,22 @@ const studio = window.studio = {
     one();
     return true;
   },
+  // The display's table-driven levels against the formula's (the studio check wants none
+  // wrong): at each level's least value and the doubles beside it, across [0, 1] in fine steps,
+  // at every float of a few decades' exponents, and at the odd ones (negative, NaN, infinite).
+  checkLevels() {
+    const bits = new Float64Array(1), word = new BigUint64Array(bits.buffer);
+    const beside = (v, step) => { bits[0] = v; word[0] += BigInt(step); return bits[0]; };
+    let checked = 0;
+    const wrong = [];
+    const one = (v) => { checked++; if (level(v) !== levelByFormula(v) && wrong.length < 10) wrong.push(v); };
+    for (let k = 1; k <= 255; k++) if (LEAST[k] > 0 && LEAST[k] < 1) for (let s = -3; s <= 3; s++) one(beside(LEAST[k], s));
+    for (let i = 0; i <= 1000000; i++) one(i / 1000000);
+    const f = new Float32Array(1), fw = new Uint32Array(f.buffer);
+    for (let w = 0x39800000; w < 0x3f800000; w += 97) { fw[0] = w; one(f[0]); }
+    for (const v of [-0, -1, -1e-30, NaN, Infinity, -Infinity, 1, 1.0000001, 2, 1e30, Number.MIN_VALUE]) one(v);
+    return { checked, wrong };
+  },
   // The last file offered for download: its name and bytes as base64.
   lastDownload: null,
   violations: () => violations,
@@ -199,16 +255,55 @@ const studio = window.studio = {
 };
 
 // --- display ----------------------------------------------------------------------------
+// The beauty image is the sum of the layers in their order, each step rounded to f32 (the sums
+// of adding each layer in turn into a Float32Array, made in one pass), once a frame.
 function layerData(name) {
   if (name !== "beauty") return frame.layers.find((l) => l.name === name)?.data;
-  const sum = new Float32Array(frame.width * frame.height * 3);
-  for (const l of frame.layers) for (let i = 0; i < sum.length; i++) sum[i] += l.data[i];
-  return sum;
+  if (!frame.beauty) {
+    const sum = new Float32Array(frame.width * frame.height * 3), layers = frame.layers.map((l) => l.data);
+    for (let i = 0; i < sum.length; i++) {
+      let s = 0;
+      for (let k = 0; k < layers.length; k++) s = Math.fround(s + layers[k][i]);
+      sum[i] = s;
+    }
+    frame.beauty = sum;
+  }
+  return frame.beauty;
 }
 
 function srgb(x) {
   x = Math.max(0, Math.min(1, x));
   return x <= 0.0031308 ? 12.92 * x : 1.055 * Math.pow(x, 1 / 2.4) - 0.055;
+}
+
+// The display's 8-bit level of a linear value: by definition what a Uint8ClampedArray makes of
+// `srgb(v) * 255 + 0.5`, but without a pow per channel. That level only rises with v, so it is
+// found from the least v of each level (found once, by bisection over the formula) starting at
+// the level of a table of 4096 steps over [0, 1], each of which spans less than one level.
+const clamp8 = new Uint8ClampedArray(1);
+function levelByFormula(v) { clamp8[0] = srgb(v) * 255 + 0.5; return clamp8[0]; }
+const STEPS = 4096;
+const LEAST = new Float64Array(257).fill(Infinity); // LEAST[k]: the least v whose level is k or more
+const LEVEL_AT = new Uint8Array(STEPS + 1);         // the level of k / STEPS
+LEAST[0] = -Infinity;
+for (let k = 1; k <= 255; k++) {
+  if (levelByFormula(1) < k) break;
+  let lo = 0, hi = 1; // level(lo) < k <= level(hi)
+  if (levelByFormula(0) >= k) { LEAST[k] = -Infinity; continue; }
+  for (let i = 0; i < 200 && lo < hi; i++) {
+    const mid = lo + (hi - lo) / 2;
+    if (mid === lo || mid === hi) break;
+    if (levelByFormula(mid) >= k) hi = mid; else lo = mid;
+  }
+  LEAST[k] = hi;
+}
+for (let i = 0; i <= STEPS; i++) LEVEL_AT[i] = levelByFormula(i / STEPS);
+function level(v) {
+  if (!(v > 0)) return LEVEL_AT[0];
+  if (v >= 1) return LEVEL_AT[STEPS];
+  let k = LEVEL_AT[(v * STEPS) | 0];
+  while (v >= LEAST[k + 1]) k++;
+  return k;
 }
 
 // Small values made visible: log-scaled luminance through a blue–green–yellow–red ramp.
@@ -236,16 +331,59 @@ function autoExposure(data) {
 function toPixels(data, w, h, name = selected) {
   const out = new Uint8ClampedArray(w * h * 4);
   const gain = Math.pow(2, exposureOf(name));
-  const fc = $("falsecolour").checked;
+  if ($("falsecolour").checked) {
+    for (let p = 0; p < w * h; p++) {
+      const [r, g, b] = falseColour(gain * (0.2126 * data[3 * p] + 0.7152 * data[3 * p + 1] + 0.0722 * data[3 * p + 2]));
+      out[4 * p] = r * 255 + 0.5; out[4 * p + 1] = g * 255 + 0.5; out[4 * p + 2] = b * 255 + 0.5; out[4 * p + 3] = 255;
+    }
+    return out;
+  }
   for (let p = 0; p < w * h; p++) {
-    let r = data[3 * p] * gain, g = data[3 * p + 1] * gain, b = data[3 * p + 2] * gain;
-    if (fc) [r, g, b] = falseColour(0.2126 * r + 0.7152 * g + 0.0722 * b);
-    else [r, g, b] = [srgb(r), srgb(g), srgb(b)];
-    out[4 * p] = r * 255 + 0.5; out[4 * p + 1] = g * 255 + 0.5; out[4 * p + 2] = b * 255 + 0.5; out[4 * p + 3] = 255;
+    out[4 * p] = level(data[3 * p] * gain); out[4 * p + 1] = level(data[3 * p + 1] * gain);
+    out[4 * p + 2] = level(data[3 * p + 2] * gain); out[4 * p + 3] = 255;
   }
   return out;
 }
 
+// A layer's thumbnail, `{ data, width, height }`: each of its pixels the mean of the image's
+// pixels under it (linear, so beauty's thumbnail is the sum of the layers' thumbnails), at most
+// THUMB pixels wide (the thumbnails show 120 CSS pixels wide), made once a frame.
+const THUMB = 240;
+function thumbData(name) {
+  frame.thumbs ||= new Map();
+  if (frame.thumbs.has(name)) return frame.thumbs.get(name);
+  const w = frame.width, h = frame.height;
+  const tw = Math.min(w, THUMB), th = Math.max(1, Math.round((h * tw) / w));
+  const out = new Float32Array(tw * th * 3);
+  if (name === "beauty") {
+    for (const l of frame.layers) {
+      const t = thumbData(l.name).data;
+      for (let i = 0; i < out.length; i++) out[i] += t[i];
+    }
+  } else {
+    boxFilter(layerData(name), w, h, out, tw, th);
+  }
+  const thumb = { data: out, width: tw, height: th };
+  frame.thumbs.set(name, thumb);
+  return thumb;
+}
+
+function boxFilter(data, w, h, out, tw, th) {
+  for (let y = 0; y < th; y++) {
+    const y0 = Math.floor((y * h) / th), y1 = Math.max(y0 + 1, Math.floor(((y + 1) * h) / th));
+    for (let x = 0; x < tw; x++) {
+      const x0 = Math.floor((x * w) / tw), x1 = Math.max(x0 + 1, Math.floor(((x + 1) * w) / tw));
+      let r = 0, g = 0, b = 0;
+      for (let sy = y0; sy < y1; sy++) {
+        for (let i = 3 * (sy * w + x0), end = 3 * (sy * w + x1); i < end; i += 3) { r += data[i]; g += data[i + 1]; b += data[i + 2]; }
+      }
+      const n = (x1 - x0) * (y1 - y0), o = 3 * (y * tw + x);
+      out[o] = r / n; out[o + 1] = g / n; out[o + 2] = b / n;
+    }
+  }
+}
+
+let thumbsTimer = null;
 function draw() {
   if (!frame) return;
   const canvas = $("main");
@@ -297,7 +435,9 @@ function draw() {
     const current = toPixels(data, frame.width, frame.height);
     $("psnr").textContent = `PSNR vs snapshot: ${psnr(current, snapshot.pixels).toFixed(1)} dB`;
   }
-  drawThumbs();
+  // The thumbnails after the big image is on the screen.
+  clearTimeout(thumbsTimer);
+  thumbsTimer = setTimeout(() => { thumbsTimer = null; if (frame) drawThumbs(); }, 0);
   legend();
 }
 
@@ -323,22 +463,28 @@ function psnr(a, b) {
   return sum === 0 ? Infinity : 10 * Math.log10(255 * 255 / (sum / n));
 }
 
+// The thumbnails' figures stay from one frame to the next while the layers are the same: a
+// frame redraws their pixels only (a new canvas each frame cost more than the drawing).
 function drawThumbs() {
   const box = $("thumbs");
   const names = ["beauty", ...frame.layers.map((l) => l.name)];
-  box.replaceChildren(...names.map((name) => {
-    const fig = document.createElement("figure");
+  const figures = [...box.children];
+  if (figures.length !== names.length || figures.some((f, i) => f.dataset.layer !== names[i])) {
+    box.replaceChildren(...names.map((name) => {
+      const fig = document.createElement("figure");
+      fig.dataset.layer = name;
+      fig.append(document.createElement("canvas"), document.createElement("figcaption"));
+      fig.onclick = () => { selected = name; showExposure(); draw(); };
+      return fig;
+    }));
+  }
+  for (const fig of box.children) {
+    const name = fig.dataset.layer, [c, cap] = fig.children, t = thumbData(name);
     fig.className = name === selected ? "selected" : "";
-    const c = document.createElement("canvas");
-    c.width = frame.width; c.height = frame.height;
-    c.getContext("2d").putImageData(new ImageData(toPixels(layerData(name), frame.width, frame.height, name), frame.width, frame.height), 0, 0);
-    const cap = document.createElement("figcaption");
+    if (c.width !== t.width || c.height !== t.height) { c.width = t.width; c.height = t.height; }
+    c.getContext("2d").putImageData(new ImageData(toPixels(t.data, t.width, t.height, name), t.width, t.height), 0, 0);
     cap.textContent = exposureOf(name) ? `${name} (${exposureOf(name) > 0 ? "+" : ""}${exposureOf(name)} stops)` : name;
-    fig.append(c, cap);
-    fig.dataset.layer = name;
-    fig.onclick = () => { selected = name; showExposure(); draw(); };
-    return fig;
-  }));
+  }
 }
 
 function showExposure() {
