@@ -77,8 +77,19 @@ fn changed(old: Option<&[glam::Vec3]>, new: &[glam::Vec3]) -> Option<(usize, usi
     let Some(old) = old.map(bytemuck::cast_slice::<_, u32>).filter(|o| o.len() == new.len()) else {
         return Some((0, new.len()));
     };
-    let from = old.iter().zip(new).position(|(a, b)| a != b)?;
-    let to = new.len() - old.iter().rev().zip(new.iter().rev()).position(|(a, b)| a != b).unwrap_or(0);
+    // Blocks compared whole first (a memcmp), then the floats of the first and the last block
+    // that differ.
+    const BLOCK: usize = 256;
+    let differs = |k: usize| {
+        let at = k * BLOCK..((k + 1) * BLOCK).min(new.len());
+        old[at.clone()] != new[at]
+    };
+    let blocks = new.len().div_ceil(BLOCK);
+    let first = (0..blocks).find(|&k| differs(k))?;
+    let last = (first..blocks).rev().find(|&k| differs(k)).unwrap_or(first);
+    let from = first * BLOCK + (first * BLOCK..new.len()).position(|i| old[i] != new[i]).unwrap_or(0);
+    let end = ((last + 1) * BLOCK).min(new.len());
+    let to = end - (0..end).rev().position(|i| old[i] != new[i]).unwrap_or(0);
     Some((from, to))
 }
 
@@ -703,13 +714,38 @@ mod tests {
         }
         let (header, page) = receive(&sent.messages(&second), &page);
         assert_eq!(page, images(&second));
-        assert_eq!(header["sent"], json!([["diffuse", 301, 752], ["beauty", 301, 752]]), "pixel 100's green to pixel 250's");
+        assert_eq!(
+            header["sent"],
+            json!([["diffuse", 301, 752], ["beauty", 301, 752]]),
+            "pixel 100's green to pixel 250's"
+        );
         sent.sent(second.clone());
         // The same frame again sends nothing; a frame of another size sends every image whole.
         let (header, again) = receive(&sent.messages(&second), &page);
         assert_eq!((header["total"].as_u64(), again), (Some(0), page));
         let resized = rendered(3, false, (41, 30), &[("ambient", 1.0), ("diffuse", 2.0), ("background", 0.0)]);
         assert_eq!(receive(&sent.messages(&resized), &HashMap::new()).1, images(&resized));
+    }
+
+    #[test]
+    fn the_changed_stretch_is_from_the_first_to_the_last_float_that_differs() {
+        // Against the float-by-float answer, at block edges and across them.
+        for pixels in [1, 85, 86, 171, 1000] {
+            let old: Vec<glam::Vec3> = (0..pixels).map(|i| glam::Vec3::splat(i as f32)).collect();
+            assert_eq!(changed(Some(&old), &old), None);
+            assert_eq!(changed(None, &old), Some((0, 3 * pixels)));
+            let n = 3 * pixels;
+            for (a, b) in [(0, 0), (0, n - 1), (n - 1, n - 1), (255, 256), (256, 511), (n / 2, n - 2), (1, 768)] {
+                let (a, b) = (a.min(n - 1), b.min(n - 1));
+                let mut new = old.clone();
+                let floats: &mut [f32] = bytemuck::cast_slice_mut(&mut new);
+                floats[a] = -1.0;
+                floats[b] = -2.0;
+                assert_eq!(changed(Some(&old), &new), Some((a.min(b), a.max(b) + 1)), "{pixels} pixels, {a} and {b}");
+            }
+        }
+        // -0 and 0 differ to the bit.
+        assert_eq!(changed(Some(&[glam::Vec3::ZERO]), &[glam::Vec3::new(0.0, -0.0, 0.0)]), Some((1, 2)));
     }
 
     #[test]

@@ -435,9 +435,10 @@ function draw() {
     const current = toPixels(data, frame.width, frame.height);
     $("psnr").textContent = `PSNR vs snapshot: ${psnr(current, snapshot.pixels).toFixed(1)} dB`;
   }
-  // The thumbnails after the big image is on the screen.
+  // The thumbnails after the big image is on the screen; a coarse image's only when there are
+  // none yet or the layers changed (they would be redrawn a moment later, during the full render).
   clearTimeout(thumbsTimer);
-  thumbsTimer = setTimeout(() => { thumbsTimer = null; if (frame) drawThumbs(); }, 0);
+  if (!frame.coarse || !thumbsMatch()) thumbsTimer = setTimeout(() => { thumbsTimer = null; if (frame) drawThumbs(); }, 0);
   legend();
 }
 
@@ -465,11 +466,16 @@ function psnr(a, b) {
 
 // The thumbnails' figures stay from one frame to the next while the layers are the same: a
 // frame redraws their pixels only (a new canvas each frame cost more than the drawing).
+// Whether the thumbnails shown are of the frame's layers.
+function thumbsMatch() {
+  const names = ["beauty", ...frame.layers.map((l) => l.name)], figures = [...$("thumbs").children];
+  return figures.length === names.length && figures.every((f, i) => f.dataset.layer === names[i]);
+}
+
 function drawThumbs() {
   const box = $("thumbs");
   const names = ["beauty", ...frame.layers.map((l) => l.name)];
-  const figures = [...box.children];
-  if (figures.length !== names.length || figures.some((f, i) => f.dataset.layer !== names[i])) {
+  if (!thumbsMatch()) {
     box.replaceChildren(...names.map((name) => {
       const fig = document.createElement("figure");
       fig.dataset.layer = name;
@@ -592,12 +598,15 @@ $("inspector").addEventListener("click", (e) => {
 });
 
 // --- panels -----------------------------------------------------------------------------
-let pending = false;
+let pending = false, lastSent = -Infinity;
 function changed() {
-  // One message per animation frame, the newest state: a storm of slider moves sends little.
+  // At most one message per animation frame, the newest state: a storm of slider moves sends
+  // little. An edit after a pause goes at once.
   if (pending) return;
+  const send = () => { pending = false; lastSent = performance.now(); engine.send(state); sourceFollows(); };
+  if (performance.now() - lastSent >= 16) return send();
   pending = true;
-  requestAnimationFrame(() => { pending = false; engine.send(state); sourceFollows(); });
+  requestAnimationFrame(send);
 }
 
 function el(tag, props = {}, ...children) {
