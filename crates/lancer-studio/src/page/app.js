@@ -144,11 +144,12 @@ function receiveFrame(buffer) {
     const floatsOf = floats.subarray(pos, pos + to - from);
     pos += to - from;
     if (from === 0 && to === n) { images.set(name, floatsOf); continue; }
+    // The last full frame's image, changed where it is: nothing shows that frame any more (a
+    // snapshot, a thumbnail and a download each hold their own copy).
     const base = old(name);
     if (!base || to > n) return lostFrame(name);
-    const image = new Float32Array(base);
-    image.set(floatsOf, from);
-    images.set(name, image);
+    base.set(floatsOf, from);
+    images.set(name, base);
   }
   const image = (name) => images.get(name) || old(name);
   const layers = header.layers.map((name) => ({ name, data: image(name) }));
