@@ -146,7 +146,31 @@ fn run(d: &Driver, url: &str, scene: &Path, original: &str, screenshot: &Path) -
     }
     println!("pixel {x},{y}: the inspector's totals equal the image's values for {}", names.join(", "));
 
-    // 5. A broken save: the error shows, the image stays.
+    // 5. The images the page put together from the stretches each full frame sent (what changed
+    // since the last) are the bits a page that connects now is sent whole.
+    let frame = d.js("return window.studio.frame()", json!([]))?;
+    let mut names: Vec<String> = vec!["beauty".into()];
+    names.extend(frame["layers"].as_array().into_iter().flatten().filter_map(|n| n.as_str().map(String::from)));
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let patched = hashes(&names)?;
+    let lost = d.js("return window.studio.lost || 0", json!([]))?;
+    if lost != json!(0) {
+        bail!("the page could not put {lost} frames together");
+    }
+    d.call("POST", "/url", json!({ "url": url }))?;
+    let again = d.until("the first full image after a reload", &FULL_AFTER.replace("arguments[0]", "0"))?;
+    if again != frame["generation"] {
+        bail!("after a reload the page shows frame {again}, not the newest full frame {}", frame["generation"]);
+    }
+    let whole = hashes(&names)?;
+    if whole != patched {
+        bail!(
+            "the images put together from changed stretches ({patched:?}) are not the ones sent whole ({whole:?}) for {names:?}"
+        );
+    }
+    println!("{} images put together from the stretches sent: the bits a new page is sent whole", names.len());
+
+    // 6. A broken save: the error shows, the image stays.
     let beauty = hash("beauty")?;
     std::fs::write(scene, "[camera]\nfrom = [0, 0]\n")?;
     let error = d.until("the error of a broken save", "const e = document.getElementById('error'); return !e.hidden && e.textContent.includes('showcase.toml:2:') ? e.textContent : null")?;

@@ -84,7 +84,7 @@ pub const SET: &str = "const e = document.querySelector(arguments[0]); if (!e) r
 
 /// The milliseconds from the last edit ([`SET`]) to the first coarse and the first full image of a
 /// newer frame drawn on the page (on the canvas, not only received), and to that full image's
-/// arrival (its last byte received); -1 for one not drawn yet.
+/// arrival (put together from its messages, before it is drawn); -1 for one not drawn yet.
 pub const SINCE_EDIT: &str = "const s = window.studio, a = s.arrivals.filter((x) => x.at >= s.editAt && x.drawn !== null); \
     const c = a.find((x) => x.coarse), f = a.find((x) => !x.coarse); \
     return [c ? c.drawn - s.editAt : -1, f ? f.drawn - s.editAt : -1, f ? f.at - s.editAt : -1];";

@@ -217,7 +217,11 @@ async fn socket(Axum(g): Axum<Guard>, headers: HeaderMap, ws: WebSocketUpgrade) 
 /// is gone.
 async fn send_frame(ws: &mut WebSocket, sent: &mut Sent, frame: Option<crate::worker::FrameBytes>) -> bool {
     let Some(frame) = frame else { return true };
-    for m in sent.messages(&frame) {
+    // Comparing with the last frame and copying the floats out takes milliseconds a page: done
+    // on tokio's blocking threads, not on the ones that serve every connection.
+    let (page, f) = (sent.clone(), frame.clone());
+    let Ok(messages) = tokio::task::spawn_blocking(move || page.messages(&f)).await else { return false };
+    for m in messages {
         if ws.send(Message::Binary(m.into())).await.is_err() {
             return false;
         }

@@ -65,7 +65,7 @@ impl Rendered {
 /// floats `from..to` (linear RGB per pixel) the messages carry, one after the other, out of the
 /// layers and `beauty`. Every other float of those images is the one at the same place in the
 /// image of that name in the last full frame sent before.
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub(crate) struct Sent {
     last_full: Option<FrameBytes>,
 }
@@ -674,15 +674,23 @@ mod tests {
             floats.extend(part);
         }
         assert_eq!(header["total"].as_u64(), Some(floats.len() as u64));
+        let n = (header["width"].as_u64().unwrap() * header["height"].as_u64().unwrap() * 3) as usize;
         let mut images = page.clone();
         let mut pos = 0;
         for span in header["sent"].as_array().unwrap() {
             let (name, from, to) =
                 (span[0].as_str().unwrap(), span[1].as_u64().unwrap() as usize, span[2].as_u64().unwrap() as usize);
-            let image = images.entry(name.to_owned()).or_default();
-            image.resize(image.len().max(to), f32::NAN);
-            image[from..to].copy_from_slice(&floats[pos..pos + to - from]);
+            let part = &floats[pos..pos + to - from];
             pos += to - from;
+            if (from, to) == (0, n) {
+                images.insert(name.to_owned(), part.to_vec());
+                continue;
+            }
+            // A stretch goes over the image of the last full frame, which the page must have.
+            let image =
+                images.get_mut(name).unwrap_or_else(|| panic!("a stretch of {name}, which the page does not have"));
+            assert_eq!(image.len(), n, "a stretch of {name} over an image of another size");
+            image[from..to].copy_from_slice(part);
         }
         assert_eq!(pos, floats.len());
         (header, images)
@@ -751,17 +759,32 @@ mod tests {
     #[test]
     fn a_frame_larger_than_a_message_is_cut_across_its_images() {
         // 640x360 of five layers and beauty: 4 147 200 floats, eight messages.
+        let layers = [("a", 1.0), ("b", 2.0), ("c", 3.0), ("d", 4.0), ("e", 5.0)];
         let mut sent = Sent::default();
-        let first = rendered(1, false, (640, 360), &[("a", 1.0), ("b", 2.0), ("c", 3.0), ("d", 4.0), ("e", 5.0)]);
+        let first = rendered(1, false, (640, 360), &layers);
         let messages = sent.messages(&first);
         assert_eq!(messages.len(), (6 * 640 * 360 * 3usize).div_ceil(CHUNK));
-        assert_eq!(receive(&messages, &HashMap::new()).1, images(&first));
+        let (_, page) = receive(&messages, &HashMap::new());
+        assert_eq!(page, images(&first));
         sent.sent(first);
-        let second = rendered(2, false, (640, 360), &[("a", 1.0), ("b", 7.0), ("c", 3.0), ("d", 8.0), ("e", 5.0)]);
-        let (header, page) = receive(&sent.messages(&second), &images(&second));
+        // Stretches of b and d (and so of beauty) changed: 1.1 M floats, three messages, the
+        // stretches cut across them.
+        let mut second = rendered(2, false, (640, 360), &layers);
+        let frame = &mut Arc::get_mut(&mut second).unwrap().frame;
+        for (layer, span) in [(1, 100_000..400_000), (3, 50_000..450_000)] {
+            for i in span {
+                bytemuck::cast_slice_mut::<_, f32>(&mut frame.layers[layer].pixels)[i] += 0.5;
+                bytemuck::cast_slice_mut::<_, f32>(&mut frame.beauty)[i] += 0.5;
+            }
+        }
+        let messages = sent.messages(&second);
+        assert_eq!(messages.len(), 3);
+        let (header, page) = receive(&messages, &page);
         assert_eq!(page, images(&second));
-        let names: Vec<&str> = header["sent"].as_array().unwrap().iter().map(|s| s[0].as_str().unwrap()).collect();
-        assert_eq!(names, ["b", "d", "beauty"]);
+        assert_eq!(
+            header["sent"],
+            json!([["b", 100_000, 400_000], ["d", 50_000, 450_000], ["beauty", 50_000, 450_000]])
+        );
     }
 
     #[test]

@@ -117,6 +117,7 @@ let incoming = null; // the frame being received: { header, floats, got }
 let lastFull = null; // the last full frame received: what a newer frame's images not sent are
 
 function receiveFrame(buffer) {
+  if (framesLost) return;
   const view = new DataView(buffer);
   const length = view.getUint32(0, true);
   const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
@@ -138,23 +139,29 @@ function receiveFrame(buffer) {
   const sent = header.sent || header.layers.map((name, i) => [name, 0, n]);
   const before = header.sent && !header.coarse && lastFull && lastFull.width === header.width && lastFull.height === header.height ? lastFull : null;
   const old = (name) => before && (name === "beauty" ? before.beauty : before.layers.find((l) => l.name === name)?.data);
-  const images = new Map();
+  // Every stretch checked before any is written: a frame that does not fit what the page holds
+  // (which the server never sends) changes nothing, and the page stops taking frames.
   let pos = 0;
-  for (const [name, from, to] of sent) {
-    const floatsOf = floats.subarray(pos, pos + to - from);
+  const stretches = sent.map(([name, from, to]) => {
+    const at = pos;
     pos += to - from;
-    if (from === 0 && to === n) { images.set(name, floatsOf); continue; }
+    return { name, from, to, floats: floats.subarray(at, pos) };
+  });
+  const lost = pos !== floats.length ? { name: "every" } : stretches.find((t) => !(t.from >= 0 && t.from <= t.to && t.to <= n && (t.to - t.from === n || old(t.name))));
+  if (lost) return lostFrame(lost.name);
+  const unknown = header.layers.find((name) => !sent.some(([s]) => s === name) && !old(name));
+  if (unknown) return lostFrame(unknown);
+  const images = new Map();
+  for (const { name, from, to, floats: values } of stretches) {
+    if (from === 0 && to === n) { images.set(name, values); continue; }
     // The last full frame's image, changed where it is: nothing shows that frame any more (a
     // snapshot, a thumbnail and a download each hold their own copy).
     const base = old(name);
-    if (!base || to > n) return lostFrame(name);
-    base.set(floatsOf, from);
+    base.set(values, from);
     images.set(name, base);
   }
   const image = (name) => images.get(name) || old(name);
   const layers = header.layers.map((name) => ({ name, data: image(name) }));
-  const missing = layers.find((l) => !l.data);
-  if (missing) return lostFrame(missing.name);
   const f = { width: header.width, height: header.height, coarse: header.coarse, layers, generation: header.generation, seconds: header.seconds };
   // The beauty image as the server summed it (the same bits as the page's sum), when it has it.
   const beauty = image("beauty");
@@ -165,10 +172,15 @@ function receiveFrame(buffer) {
   showFrame(f);
 }
 
-// A frame that names an image this page does not have (which the server never sends).
+// A frame that does not fit what the page holds (which the server never sends): later frames
+// would be put together on the wrong images, so the page takes no more and says so.
+let framesLost = false;
 function lostFrame(name) {
+  framesLost = true;
+  lastFull = null;
+  studio.lost = (studio.lost || 0) + 1;
   $("error").hidden = false;
-  $("error").textContent = `the studio sent a frame without its ${name} image: reload the page`;
+  $("error").textContent = `the studio sent a frame that does not fit the ${name} image this page holds: reload the page`;
 }
 
 function showFrame(f) {
@@ -183,7 +195,7 @@ function showFrame(f) {
   $("error").hidden = true;
   $("progress").value = f.coarse ? 0 : 1;
   status(`${f.coarse ? "coarse" : "full"} image in ${(f.seconds * 1000).toFixed(0)} ms${LOCAL ? ` · ${engine.workers} workers${engine.simd ? ", SIMD" : ""}` : ""}`);
-  draw();
+  draw(true);
   arrival.drawn = performance.now();
 }
 
@@ -229,8 +241,8 @@ const studio = window.studio = {
     return true;
   },
   // The display's table-driven levels against the formula's (the studio check wants none
-  // wrong): at each level's least value and the doubles beside it, across [0, 1] in fine steps,
-  // at every float of a few decades' exponents, and at the odd ones (negative, NaN, infinite).
+  // wrong): at each level's least value and the doubles beside it, across [0, 1] in steps of a
+  // millionth, at every 97th float from 2^-12 to 1, and at the odd ones (negative, NaN, infinite).
   checkLevels() {
     const bits = new Float64Array(1), word = new BigUint64Array(bits.buffer);
     const beside = (v, step) => { bits[0] = v; word[0] += BigInt(step); return bits[0]; };
@@ -258,18 +270,18 @@ const studio = window.studio = {
 // --- display ----------------------------------------------------------------------------
 // The beauty image is the sum of the layers in their order, each step rounded to f32 (the sums
 // of adding each layer in turn into a Float32Array, made in one pass), once a frame.
-function layerData(name) {
-  if (name !== "beauty") return frame.layers.find((l) => l.name === name)?.data;
-  if (!frame.beauty) {
-    const sum = new Float32Array(frame.width * frame.height * 3), layers = frame.layers.map((l) => l.data);
+function layerData(name, f = frame) {
+  if (name !== "beauty") return f.layers.find((l) => l.name === name)?.data;
+  if (!f.beauty) {
+    const sum = new Float32Array(f.width * f.height * 3), layers = f.layers.map((l) => l.data);
     for (let i = 0; i < sum.length; i++) {
       let s = 0;
       for (let k = 0; k < layers.length; k++) s = Math.fround(s + layers[k][i]);
       sum[i] = s;
     }
-    frame.beauty = sum;
+    f.beauty = sum;
   }
-  return frame.beauty;
+  return f.beauty;
 }
 
 function srgb(x) {
@@ -350,22 +362,22 @@ function toPixels(data, w, h, name = selected) {
 // pixels under it (linear, so beauty's thumbnail is the sum of the layers' thumbnails), at most
 // THUMB pixels wide (the thumbnails show 120 CSS pixels wide), made once a frame.
 const THUMB = 240;
-function thumbData(name) {
-  frame.thumbs ||= new Map();
-  if (frame.thumbs.has(name)) return frame.thumbs.get(name);
-  const w = frame.width, h = frame.height;
+function thumbData(name, f = frame) {
+  f.thumbs ||= new Map();
+  if (f.thumbs.has(name)) return f.thumbs.get(name);
+  const w = f.width, h = f.height;
   const tw = Math.min(w, THUMB), th = Math.max(1, Math.round((h * tw) / w));
   const out = new Float32Array(tw * th * 3);
   if (name === "beauty") {
-    for (const l of frame.layers) {
-      const t = thumbData(l.name).data;
+    for (const l of f.layers) {
+      const t = thumbData(l.name, f).data;
       for (let i = 0; i < out.length; i++) out[i] += t[i];
     }
   } else {
-    boxFilter(layerData(name), w, h, out, tw, th);
+    boxFilter(layerData(name, f), w, h, out, tw, th);
   }
   const thumb = { data: out, width: tw, height: th };
-  frame.thumbs.set(name, thumb);
+  f.thumbs.set(name, thumb);
   return thumb;
 }
 
@@ -385,7 +397,8 @@ function boxFilter(data, w, h, out, tw, th) {
 }
 
 let thumbsTimer = null;
-function draw() {
+// Draws the frame; `fresh` when it has just come.
+function draw(fresh = false) {
   if (!frame) return;
   const canvas = $("main");
   const data = layerData(selected);
@@ -436,10 +449,14 @@ function draw() {
     const current = toPixels(data, frame.width, frame.height);
     $("psnr").textContent = `PSNR vs snapshot: ${psnr(current, snapshot.pixels).toFixed(1)} dB`;
   }
-  // The thumbnails after the big image is on the screen; a coarse image's only when there are
-  // none yet or the layers changed (they would be redrawn a moment later, during the full render).
-  clearTimeout(thumbsTimer);
-  if (!frame.coarse || !thumbsMatch()) thumbsTimer = setTimeout(() => { thumbsTimer = null; if (frame) drawThumbs(); }, 0);
+  // The thumbnails after the big image is on the screen, of this frame. A new coarse frame
+  // leaves them as they are while they show its layers (the full frame's come a moment later,
+  // and a redraw already waiting keeps its own frame).
+  if (!(fresh && frame.coarse && thumbsMatch(frame))) {
+    clearTimeout(thumbsTimer);
+    const f = frame;
+    thumbsTimer = setTimeout(() => { thumbsTimer = null; drawThumbs(f); }, 0);
+  }
   legend();
 }
 
@@ -465,18 +482,18 @@ function psnr(a, b) {
   return sum === 0 ? Infinity : 10 * Math.log10(255 * 255 / (sum / n));
 }
 
-// The thumbnails' figures stay from one frame to the next while the layers are the same: a
-// frame redraws their pixels only (a new canvas each frame cost more than the drawing).
-// Whether the thumbnails shown are of the frame's layers.
-function thumbsMatch() {
-  const names = ["beauty", ...frame.layers.map((l) => l.name)], figures = [...$("thumbs").children];
-  return figures.length === names.length && figures.every((f, i) => f.dataset.layer === names[i]);
+// Whether the thumbnails shown are of the layers of frame `f`.
+function thumbsMatch(f) {
+  const names = ["beauty", ...f.layers.map((l) => l.name)], figures = [...$("thumbs").children];
+  return figures.length === names.length && figures.every((fig, i) => fig.dataset.layer === names[i]);
 }
 
-function drawThumbs() {
+// The thumbnails' figures stay from one frame to the next while the layers are the same: a
+// frame redraws their pixels only (a new canvas each frame cost more than the drawing).
+function drawThumbs(f) {
   const box = $("thumbs");
-  const names = ["beauty", ...frame.layers.map((l) => l.name)];
-  if (!thumbsMatch()) {
+  const names = ["beauty", ...f.layers.map((l) => l.name)];
+  if (!thumbsMatch(f)) {
     box.replaceChildren(...names.map((name) => {
       const fig = document.createElement("figure");
       fig.dataset.layer = name;
@@ -486,7 +503,7 @@ function drawThumbs() {
     }));
   }
   for (const fig of box.children) {
-    const name = fig.dataset.layer, [c, cap] = fig.children, t = thumbData(name);
+    const name = fig.dataset.layer, [c, cap] = fig.children, t = thumbData(name, f);
     fig.className = name === selected ? "selected" : "";
     if (c.width !== t.width || c.height !== t.height) { c.width = t.width; c.height = t.height; }
     c.getContext("2d").putImageData(new ImageData(toPixels(t.data, t.width, t.height, name), t.width, t.height), 0, 0);
@@ -601,8 +618,8 @@ $("inspector").addEventListener("click", (e) => {
 // --- panels -----------------------------------------------------------------------------
 let pending = false, lastSent = -Infinity;
 function changed() {
-  // At most one message per animation frame, the newest state: a storm of slider moves sends
-  // little. An edit after a pause goes at once.
+  // An edit after a pause goes at once; the edits that follow it within 16 ms wait for the next
+  // animation frame and go as one message, the newest state: a storm of slider moves sends little.
   if (pending) return;
   const send = () => { pending = false; lastSent = performance.now(); engine.send(state); sourceFollows(); };
   if (performance.now() - lastSent >= 16) return send();
