@@ -575,7 +575,34 @@ impl Bvh {
     /// begins beyond the best hit so far is dropped; the order of visits depends only on the ray,
     /// so the same ray always gets the same answer.
     #[inline]
-    pub fn traverse_from(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, visit: impl FnMut(u32, f32) -> f32) -> f32 {
+    pub fn traverse_from(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, mut visit: impl FnMut(u32, f32) -> f32) -> f32 {
+        let ordered = self.ordered;
+        self.traverse_leaves_from(o, d, tmin, tmax, |first, count, mut tmax| {
+            if ordered {
+                for i in first..first + count {
+                    tmax = visit(i, tmax);
+                }
+            } else {
+                for &i in &self.indices[first as usize..(first + count) as usize] {
+                    tmax = visit(i, tmax);
+                }
+            }
+            tmax
+        })
+    }
+
+    /// As [`Bvh::traverse_from`], a leaf at a time: `visit(first, count, tmax)` gets the leaf's
+    /// positions `first..first + count` in leaf order (the items themselves once the tree is in
+    /// leaf order, see [`Bvh::into_leaf_order`]) and returns the new `tmax`.
+    #[inline]
+    pub fn traverse_leaves_from(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: f32,
+        visit: impl FnMut(u32, u32, f32) -> f32,
+    ) -> f32 {
         if self.nodes.is_empty() {
             return tmax;
         }
@@ -600,7 +627,7 @@ impl Bvh {
         flat: [bool; 3],
         tmin: f32,
         mut tmax: f32,
-        mut visit: impl FnMut(u32, f32) -> f32,
+        mut visit: impl FnMut(u32, u32, f32) -> f32,
     ) -> f32 {
         let inv = d.recip();
         let back: [bool; 3] = d.cmplt(Vec3::ZERO).into();
@@ -619,15 +646,7 @@ impl Bvh {
                 continue;
             }
             if count != INNER {
-                if self.ordered {
-                    for i in child..child + count {
-                        tmax = visit(i, tmax);
-                    }
-                } else {
-                    for &i in &self.indices[child as usize..(child + count) as usize] {
-                        tmax = visit(i, tmax);
-                    }
-                }
+                tmax = visit(child, count, tmax);
                 continue;
             }
             let node = &self.nodes[child as usize];
