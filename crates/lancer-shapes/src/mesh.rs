@@ -469,15 +469,19 @@ pub(crate) mod tests {
 
     #[test]
     fn four_triangles_at_once_give_the_answer_of_each_in_turn_to_the_bit() {
-        // Quads of random triangles, some sharing an edge or a corner (rays through them reach
-        // the f64 path), and the ray aimed at one of them; every set of live lanes, against
-        // the triangles tested one after another with the nearest hit so far as the limit.
+        // Quads of random triangles, some with two sharing an edge and one repeated (a tie),
+        // some on a half-unit grid met by a ray along an axis through grid points (an edge
+        // function exactly 0: the f64 path), and the ray aimed at one of them; every set of live
+        // lanes, under three pairs of bounds, against the triangles tested one after another
+        // with the nearest hit so far as the limit.
         let mut f = crate::testing::uniform(0x9E37_79B9_7F4A_7C15);
-        let (mut hits, mut ties) = (0, 0);
+        let (mut hits, mut ties, mut on_edge) = (0, 0, 0);
         // (`ties`: lanes 0 and 3 both live and the same triangle hit: lane 0 must win.)
-        for k in 0..5_000 {
+        for k in 0..6_000 {
+            let grid = k % 4 == 3;
+            let mut g = |lo: f32, hi: f32| if grid { (f(lo, hi) * 2.0).round() * 0.5 } else { f(lo, hi) };
             let mut tris: [[Vec3; 3]; 4] =
-                [(); 4].map(|_| [(); 3].map(|_| Vec3::new(f(-2.0, 2.0), f(-2.0, 2.0), f(-2.0, 2.0))));
+                [(); 4].map(|_| [(); 3].map(|_| Vec3::new(g(-2.0, 2.0), g(-2.0, 2.0), g(-2.0, 2.0))));
             if k % 3 == 0 {
                 // Lanes 1 and 2 share an edge; lane 3 is lane 0 again (a tie).
                 tris[2] = [tris[1][1], tris[1][0], tris[2][2]];
@@ -486,31 +490,49 @@ pub(crate) mod tests {
             let positions: Vec<Vec3> = tris.iter().flatten().copied().collect();
             let indices: Vec<[u32; 3]> = (0..4).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
             let quad = Quad::of(&indices, &positions);
-            let o = Vec3::new(f(-5.0, 5.0), f(-5.0, 5.0), f(-5.0, 5.0));
-            let aim = &tris[k % 4];
-            let target = match k % 3 {
-                0 => aim[0] + (aim[1] - aim[0]) * f(0.0, 1.0),
-                _ => aim[0] * f(0.1, 0.4) + aim[1] * f(0.1, 0.4) + aim[2] * f(0.1, 0.4),
+            let ray = if grid {
+                // Along an axis from a point of the grid (a corner, the middle of an edge).
+                let o = Vec3::new(g(-2.0, 2.0), g(-2.0, 2.0), g(-2.0, 2.0));
+                let axis = [Vec3::X, -Vec3::Y, Vec3::Z, -Vec3::Z][(k / 4) % 4];
+                Sheared::new(o - 5.0 * axis, axis)
+            } else {
+                let o = Vec3::new(f(-5.0, 5.0), f(-5.0, 5.0), f(-5.0, 5.0));
+                let aim = &tris[k % 4];
+                let target = match k % 5 {
+                    0 | 3 => aim[0] + (aim[1] - aim[0]) * f(0.0, 1.0),
+                    // At a corner: edge functions of products that round to the same f32.
+                    1 => aim[k % 3],
+                    _ => aim[0] * f(0.1, 0.4) + aim[1] * f(0.1, 0.4) + aim[2] * f(0.1, 0.4),
+                };
+                Sheared::new(o, target - o)
             };
-            let ray = Sheared::new(o, target - o);
-            for live in 1..16u32 {
-                let mut want = None;
-                let mut tmax = f32::INFINITY;
-                for l in (0..4).filter(|l| live >> l & 1 == 1) {
-                    assert_eq!(quad.corners(l), tris[l]);
-                    if let Some((t, w)) = ray.hit(&tris[l], 0.0, tmax) {
-                        want = Some((l, t, w));
-                        tmax = t;
+            // Open bounds, a far bound at one lane's own distance (its hit is then not taken), a
+            // near bound past it.
+            let first = (0..4).find_map(|l| ray.hit(&tris[l], 0.0, f32::INFINITY)).map_or(1.0, |(t, _)| t);
+            for (tmin, tmax) in [(0.0, f32::INFINITY), (0.0, first), (first * 0.999, f32::INFINITY)] {
+                for live in 1..16u32 {
+                    let mut want = None;
+                    let mut limit = tmax;
+                    for l in (0..4).filter(|l| live >> l & 1 == 1) {
+                        assert_eq!(quad.corners(l), tris[l]);
+                        if let Some((t, w)) = ray.hit(&tris[l], tmin, limit) {
+                            on_edge += usize::from(w.to_array().contains(&0.0));
+                            want = Some((l, t, w));
+                            limit = t;
+                        }
                     }
+                    let bits =
+                        |h: Option<(usize, f32, Vec3)>| h.map(|(l, t, w)| (l, [t, w.x, w.y, w.z].map(f32::to_bits)));
+                    let got = ray.hit4(&quad, live, tmin, tmax);
+                    assert_eq!(bits(got), bits(want), "case {k}, lanes {live:04b}, bounds {tmin}..{tmax}");
+                    hits += usize::from(want.is_some());
+                    ties += usize::from(k % 3 == 0 && live & 0b1001 == 0b1001 && want.is_some_and(|(l, ..)| l == 0));
                 }
-                let bits = |h: Option<(usize, f32, Vec3)>| h.map(|(l, t, w)| (l, [t, w.x, w.y, w.z].map(f32::to_bits)));
-                assert_eq!(bits(ray.hit4(&quad, live, 0.0, f32::INFINITY)), bits(want), "case {k}, lanes {live:04b}");
-                hits += usize::from(want.is_some());
-                ties += usize::from(k % 3 == 0 && live & 0b1001 == 0b1001 && want.is_some_and(|(l, ..)| l == 0));
             }
         }
-        assert!(hits > 20_000, "the cases hit often enough to test something ({hits})");
+        assert!(hits > 40_000, "the cases hit often enough to test something ({hits})");
         assert!(ties > 500, "ties between lanes come up ({ties})");
+        assert!(on_edge > 500, "rays on an edge (a weight of exactly 0) come up ({on_edge})");
     }
 
     #[test]
@@ -576,9 +598,10 @@ pub(crate) mod tests {
 
     #[test]
     fn a_mesh_built_on_several_threads_gives_the_brute_force_hits() {
-        // A rippled grid of 2 · 130 · 130 triangles: more than the build splits on two threads,
-        // so subtrees are built at once in regions of the node array, then moved together.
-        let n = 130;
+        // A rippled grid of 2 · 129 · 129 triangles: more than the build splits on two threads,
+        // so subtrees are built at once in regions of the node array, then moved together; not a
+        // multiple of four, so the last quad is partly filled.
+        let n = 129;
         let mut positions = Vec::new();
         for j in 0..=n {
             for i in 0..=n {
@@ -595,8 +618,9 @@ pub(crate) mod tests {
             }
         }
         let m = Mesh::new(positions, Vec::new(), Vec::new(), triangles).unwrap();
-        for k in 0..64 {
-            let f = k as f32 / 64.0;
+        assert_ne!(m.triangle_count() % 4, 0);
+        for k in 0..256 {
+            let f = k as f32 / 256.0;
             let o = Vec3::new(-2.5 + 5.0 * f, 3.0, -2.5 + 3.0 * (f * 7.0).fract());
             let d = (Vec3::new(2.0 * (f * 3.0).fract() - 1.0, -1.5, 0.7) - 0.3 * Vec3::X).normalize();
             let fast = m.intersect(o, d, 0.0, f32::INFINITY).map(|h| h.t);
