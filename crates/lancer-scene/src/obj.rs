@@ -100,9 +100,38 @@ fn statement(line: &[u8]) -> (Statement, &[u8]) {
 
 /// The line without a trailing comment.
 fn uncommented(line: &[u8]) -> &[u8] {
-    match line.iter().position(|&b| b == b'#') {
+    match memchr::memchr(b'#', line) {
         Some(k) => &line[..k],
         None => line,
+    }
+}
+
+/// The pieces of a chunk between newlines, as `chunk.split(|&b| b == b'\n')` gives them (an
+/// empty piece after a final newline), each newline found by SIMD search.
+struct Lines<'a> {
+    rest: Option<&'a [u8]>,
+}
+
+/// The lines of `chunk` (see [`Lines`]).
+fn lines(chunk: &[u8]) -> Lines<'_> {
+    Lines { rest: Some(chunk) }
+}
+
+impl<'a> Iterator for Lines<'a> {
+    type Item = &'a [u8];
+
+    fn next(&mut self) -> Option<&'a [u8]> {
+        let rest = self.rest?;
+        match memchr::memchr(b'\n', rest) {
+            Some(k) => {
+                self.rest = Some(&rest[k + 1..]);
+                Some(&rest[..k])
+            }
+            None => {
+                self.rest = None;
+                Some(rest)
+            }
+        }
     }
 }
 
@@ -161,7 +190,7 @@ fn chunks(bytes: &[u8], parts: usize) -> Vec<&[u8]> {
 /// The elements a chunk holds (counted, not read): where the next chunk's numbering starts.
 fn count(chunk: &[u8]) -> Counts {
     let mut c = Counts::default();
-    for line in chunk.split(|&b| b == b'\n') {
+    for line in lines(chunk) {
         c.lines += 1;
         match statement(uncommented(line)) {
             (Statement::Position, _) => c.positions += 1,
@@ -273,7 +302,7 @@ fn over_budget(pieces: &[&[u8]], counts: &[Counts], starts: &[Counts], budget: B
     let mut before = starts[k].triangles;
     let mut line = starts[k].lines;
     let mut column = None;
-    for (j, raw) in pieces[k].split(|&b| b == b'\n').enumerate() {
+    for (j, raw) in lines(pieces[k]).enumerate() {
         line = starts[k].lines + j + 1;
         let (what, rest) = statement(uncommented(raw));
         let triangles = if what == Statement::Face { face_triangles(rest) } else { 0 };
@@ -314,7 +343,7 @@ fn read(chunk: &[u8], at: Counts, mine: Counts, total: Counts) -> Result<Part, O
     o.uvs.reserve_exact(mine.uvs);
     o.triangles.reserve_exact(mine.triangles);
     let (mut positions, mut normals, mut uvs) = (at.positions, at.normals, at.uvs);
-    for (k, raw) in chunk.split(|&b| b == b'\n').enumerate() {
+    for (k, raw) in lines(chunk).enumerate() {
         let line = at.lines + k + 1;
         let fail = |message: String| ObjError::at(line, message);
         let (what, rest) = statement(uncommented(raw));
@@ -506,6 +535,17 @@ fn parse_in(bytes: &[u8], parts: usize, budget: Budget) -> Result<Obj, ObjError>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lines_are_the_pieces_between_newlines_as_a_split_gives_them() {
+        let long = "v 1 2 3 # a comment longer than a SIMD block of bytes\n".repeat(5);
+        for text in
+            ["", "\n", "\n\n", "f 1 2 3", "f 1 2 3\n", "v 1 2 3\r\nf 1 2 3\r\n", "\nv 0 0 0\n\nx", long.as_str()]
+        {
+            let bytes = text.as_bytes();
+            assert_eq!(lines(bytes).collect::<Vec<_>>(), bytes.split(|&b| b == b'\n').collect::<Vec<_>>(), "{text:?}");
+        }
+    }
 
     /// A small file with every kind of line: comments, groups, negative indices, a quad, a
     /// polygon, a point and a line, CRLF endings, no newline at the end.

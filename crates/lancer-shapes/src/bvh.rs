@@ -202,6 +202,8 @@ impl Node4 {
 
 /// Ranges of at least this many items are split on two threads at once.
 const PARALLEL: usize = 1 << 15;
+/// Ranges of at most this many items are binned by sorting them (no table of every bin).
+const SMALL: usize = 15;
 
 /// An item during the build: its box kept beside its index, so partitions read memory in order.
 #[derive(Clone, Copy)]
@@ -214,6 +216,13 @@ impl Item {
     #[inline]
     fn centre(&self) -> Vec3 {
         self.bounds.centre()
+    }
+
+    /// `centre()[axis]`, the same bits, without the other two.
+    #[inline]
+    fn centre_along(&self, axis: usize) -> f32 {
+        let (min, max): (&[f32; 3], &[f32; 3]) = (self.bounds.min.as_ref(), self.bounds.max.as_ref());
+        0.5 * (min[axis] + max[axis])
     }
 }
 
@@ -260,53 +269,31 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize, step: f32) -> Option<(
 
     // Bin centres along the widest axis and sweep for the cheapest SAH split.
     let scale = BINS as f32 / size[axis];
-    let bin_of = |c: Vec3| (((c[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
-    let bin_all = |items: &[Item]| {
-        let mut bins = [(Extent::EMPTY, 0usize); BINS];
-        for i in items {
-            let b = &mut bins[bin_of(i.centre())];
-            b.0 = b.0.with(i);
-            b.1 += 1;
-        }
-        bins
-    };
-    // Large ranges are binned on every thread: unions and counts are exact, so the bins are the
-    // same however the items are shared out.
-    let bins = if n >= PARALLEL {
-        items.par_chunks(PARALLEL / 2).map(bin_all).reduce(
-            || [(Extent::EMPTY, 0usize); BINS],
-            |mut a, b| {
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x = (x.0.union(y.0), x.1 + y.1);
-                }
-                a
-            },
-        )
-    } else {
-        bin_all(items)
-    };
+    // (Cast to `i32` and clamped: the same bin as a cast to `usize`, which saturates likewise,
+    // for fewer instructions.)
+    let bin_of = |i: &Item| (((i.centre_along(axis) - cb.min[axis]) * scale) as i32).clamp(0, BINS as i32 - 1) as usize;
+    let full = if n <= SMALL { bins_sorted(items, bin_of) } else { bins_table(items, bin_of) };
     // The sweep goes over the bins that hold items: a split after an empty bin divides the items
     // as the split after the last full bin before it does, at the same cost, and the first of
     // equal costs is kept, so skipping them changes nothing (a small range, most of whose bins
     // are empty, is swept at the cost of its items, not of all the bins).
-    let full: arrayvec::ArrayVec<usize, BINS> = (0..BINS).filter(|&k| bins[k].1 > 0).collect();
-    // right[j]: the items of the full bins from the j-th on.
-    let mut right = [(Extent::EMPTY, 0usize); BINS];
+    // right[j]: the items of the full bins from the j-th on (the last first).
+    let mut right: arrayvec::ArrayVec<(Extent, usize), BINS> = arrayvec::ArrayVec::new();
     let mut acc = (Extent::EMPTY, 0);
     for j in (1..full.len()).rev() {
-        let bin = bins[full[j]];
+        let bin = full[j].1;
         acc = (acc.0.union(bin.0), acc.1 + bin.1);
-        right[j] = acc;
+        right.push(acc);
     }
     let (mut best, mut best_cost, mut best_left, mut best_right) = (0, f32::INFINITY, Extent::EMPTY, Extent::EMPTY);
     let mut acc = (Extent::EMPTY, 0);
     for j in 0..full.len().saturating_sub(1) {
-        let bin = bins[full[j]];
+        let bin = full[j].1;
         acc = (acc.0.union(bin.0), acc.1 + bin.1);
-        let (r, rn) = right[j + 1];
+        let (r, rn) = right[full.len() - 2 - j];
         let cost = acc.0.bounds.half_area() * acc.1 as f32 + r.bounds.half_area() * rn as f32;
         if acc.1 > 0 && acc.1 < n && cost < best_cost {
-            (best, best_cost, best_left, best_right) = (full[j] + 1, cost, acc.0, r);
+            (best, best_cost, best_left, best_right) = (full[j].0 + 1, cost, acc.0, r);
         }
     }
     let area = extent.bounds.half_area();
@@ -315,7 +302,7 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize, step: f32) -> Option<(
         return None;
     }
     // Partition in place, in one pass from both ends: only misplaced pairs are swapped.
-    let left = |i: &Item| bin_of(i.centre()) < best;
+    let left = |i: &Item| bin_of(i) < best;
     let (mut lo, mut hi) = (0, items.len());
     loop {
         while lo < hi && left(&items[lo]) {
@@ -332,6 +319,55 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize, step: f32) -> Option<(
         hi -= 1;
     }
     Some((lo, best_left, best_right))
+}
+
+/// The bins that hold items, in order: (bin, its items' extent, their count); each bin's
+/// extent is the union of its items' in item order.
+type Full = arrayvec::ArrayVec<(usize, (Extent, usize)), BINS>;
+
+/// [`Full`] by a table of every bin (large ranges binned on every thread: unions and counts are
+/// exact, so the bins are the same however the items are shared out).
+fn bins_table(items: &[Item], bin_of: impl Fn(&Item) -> usize + Sync) -> Full {
+    let bin_all = |items: &[Item]| {
+        let mut bins = [(Extent::EMPTY, 0usize); BINS];
+        for i in items {
+            let b = &mut bins[bin_of(i)];
+            b.0 = b.0.with(i);
+            b.1 += 1;
+        }
+        bins
+    };
+    let bins = if items.len() >= PARALLEL {
+        items.par_chunks(PARALLEL / 2).map(bin_all).reduce(
+            || [(Extent::EMPTY, 0usize); BINS],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x = (x.0.union(y.0), x.1 + y.1);
+                }
+                a
+            },
+        )
+    } else {
+        bin_all(items)
+    };
+    (0..BINS).filter(|&k| bins[k].1 > 0).map(|k| (k, bins[k])).collect()
+}
+
+/// [`Full`] for a range of at most [`SMALL`] items (most are: a million triangles plan about
+/// 900,000 such ranges), without a table of every bin: each item's bin, sorted.
+fn bins_sorted(items: &[Item], bin_of: impl Fn(&Item) -> usize) -> Full {
+    let mut of: arrayvec::ArrayVec<(usize, usize), SMALL> =
+        items.iter().enumerate().map(|(k, i)| (bin_of(i), k)).collect();
+    // (Unstable, as each pair differs: items stay in order within a bin.)
+    of.sort_unstable();
+    let mut full = Full::new();
+    for &(bin, k) in &of {
+        match full.last_mut() {
+            Some((b, e)) if *b == bin => *e = (e.0.with(&items[k]), e.1 + 1),
+            _ => full.push((bin, (Extent::EMPTY.with(&items[k]), 1))),
+        }
+    }
+    full
 }
 
 /// A child of a 4-wide node during the build: its items (a range of the node's), their extent,
@@ -684,6 +720,47 @@ impl Bvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_small_range_is_binned_by_sorting_as_by_the_table_of_bins() {
+        // Boxes on a coarse grid (equal centres, ties, signed zeros), every size up to SMALL,
+        // binned along each axis as a range of their extent would be.
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move |below: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % below as u64) as usize
+        };
+        let bits = |f: &Full| {
+            f.iter()
+                .map(|(k, (e, n))| {
+                    let v = [e.bounds.min, e.bounds.max, e.centres.min, e.centres.max];
+                    (*k, v.map(|p| p.to_array().map(f32::to_bits)), *n)
+                })
+                .collect::<Vec<_>>()
+        };
+        for round in 0..3000 {
+            let n = 1 + round % SMALL;
+            let items: Vec<Item> = (0..n)
+                .map(|k| {
+                    let a = Vec3::from_array([(); 3].map(|_| [-0.0, 0.0, 0.5, -1.5, 2.0, 3.25][next(6)]));
+                    let b = a + Vec3::from_array([(); 3].map(|_| next(3) as f32 * 0.25));
+                    Item { bounds: Aabb { min: a, max: b }, index: k as u32 }
+                })
+                .collect();
+            let cb = Extent::of(&items).centres;
+            for axis in 0..3 {
+                let scale = BINS as f32 / (cb.max[axis] - cb.min[axis]);
+                let bin_of = |i: &Item| {
+                    (((i.centre_along(axis) - cb.min[axis]) * scale) as i32).clamp(0, BINS as i32 - 1) as usize
+                };
+                assert_eq!(bits(&bins_sorted(&items, bin_of)), bits(&bins_table(&items, bin_of)), "round {round}");
+                let as_before = |i: &Item| (((i.centre()[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
+                assert!(items.iter().all(|i| bin_of(i) == as_before(i)), "round {round}: the bin of a centre");
+            }
+        }
+    }
 
     #[test]
     fn a_ray_along_a_box_face_is_inside_it_on_either_face() {
