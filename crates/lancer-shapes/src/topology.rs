@@ -47,6 +47,10 @@ pub(crate) fn orient(positions: &[Vec3], triangles: &mut [[u32; 3]]) -> bool {
         while members_start < queue.len() {
             let k = queue[members_start] as usize;
             members_start += 1;
+            // Its winding is settled (a triangle turns only before it is queued): its share of
+            // the piece's volume, in queue order.
+            let [a, b, c] = triangles[k].map(|i| positions[i as usize].as_dvec3());
+            volume += a.dot(b.cross(c));
             let wt = corners[k];
             for &u in &neighbours[k] {
                 if u == NONE {
@@ -67,10 +71,6 @@ pub(crate) fn orient(positions: &[Vec3], triangles: &mut [[u32; 3]]) -> bool {
                     consistent = false;
                 }
             }
-        }
-        for &k in &queue {
-            let [a, b, c] = triangles[k as usize].map(|i| positions[i as usize].as_dvec3());
-            volume += a.dot(b.cross(c));
         }
         total_volume += volume;
     }

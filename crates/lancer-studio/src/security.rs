@@ -215,7 +215,7 @@ async fn socket(Axum(g): Axum<Guard>, headers: HeaderMap, ws: WebSocketUpgrade) 
 
 /// Sends a frame's messages (its images the page has not been sent yet); `false` once the page
 /// is gone.
-async fn send_frame(ws: &mut WebSocket, sent: &mut Sent, frame: Option<crate::worker::FrameBytes>) -> bool {
+async fn send_frame(ws: &mut WebSocket, sent: &mut Sent, frame: Option<crate::worker::SharedFrame>) -> bool {
     let Some(frame) = frame else { return true };
     // Comparing with the last frame and copying the floats out takes milliseconds a page: done
     // on tokio's blocking threads, not on the ones that serve every connection.

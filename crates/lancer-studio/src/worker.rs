@@ -33,8 +33,8 @@ pub(crate) struct Rendered {
     frame: Frame,
 }
 
-/// A frame for the pages' connections.
-pub(crate) type FrameBytes = Arc<Rendered>;
+/// A rendered frame, shared by the pages' connections (each makes its own messages of it).
+pub(crate) type SharedFrame = Arc<Rendered>;
 
 /// Floats per message (2 MB): browsers take much larger messages badly.
 const CHUNK: usize = 512 * 1024;
@@ -67,7 +67,7 @@ impl Rendered {
 /// image of that name in the last full frame sent before.
 #[derive(Clone, Default)]
 pub(crate) struct Sent {
-    last_full: Option<FrameBytes>,
+    last_full: Option<SharedFrame>,
 }
 
 /// The stretch `from..to` of floats where `new` differs from `old` to the bit (the whole of
@@ -149,7 +149,7 @@ impl Sent {
     }
 
     /// Notes that every message of `rendered` has been sent.
-    pub(crate) fn sent(&mut self, rendered: FrameBytes) {
+    pub(crate) fn sent(&mut self, rendered: SharedFrame) {
         if !rendered.coarse {
             self.last_full = Some(rendered);
         }
@@ -164,7 +164,7 @@ pub(crate) const EVERY_PAGE: u64 = 0;
 pub(crate) struct Tab {
     /// The newest frame rendered for the page and not yet sent: only the newest is kept, so a
     /// slow page skips frames and a page holds no frame once it has been sent.
-    frame: Mutex<Option<FrameBytes>>,
+    frame: Mutex<Option<SharedFrame>>,
     /// Told when `frame` is set.
     pub ready: Notify,
     /// Its renders' errors and progress (dropped when the page does not keep up).
@@ -176,7 +176,7 @@ pub(crate) struct Tab {
 
 impl Tab {
     /// The frame waiting to be sent, if any (taken: it is sent once).
-    pub(crate) fn take(&self) -> Option<FrameBytes> {
+    pub(crate) fn take(&self) -> Option<SharedFrame> {
         lock(&self.frame).take()
     }
 }
@@ -285,7 +285,7 @@ pub(crate) struct Shared {
     /// studio, the file's.
     pub current: Mutex<State>,
     /// The newest frame for every page.
-    pub frames: watch::Sender<Option<FrameBytes>>,
+    pub frames: watch::Sender<Option<SharedFrame>>,
     /// What every page is told (errors, progress, the hello after a reload).
     pub events: broadcast::Sender<String>,
     /// Whether the page may write the scene file.
@@ -645,7 +645,7 @@ mod tests {
         (viewer, job, cancel)
     }
 
-    fn rendered(generation: u64, coarse: bool, (width, height): (u32, u32), layers: &[(&str, f32)]) -> FrameBytes {
+    fn rendered(generation: u64, coarse: bool, (width, height): (u32, u32), layers: &[(&str, f32)]) -> SharedFrame {
         let n = (width * height) as usize;
         // Each layer a ramp over the pixels from its value; the beauty image their sum.
         let image = |v: f32| (0..n).map(|i| glam::Vec3::splat(v + i as f32)).collect::<Vec<_>>();
