@@ -178,7 +178,7 @@ fn chunks(bytes: &[u8], parts: usize) -> Vec<&[u8]> {
         let cut = if rest.len() <= target {
             rest.len()
         } else {
-            rest[target..].iter().position(|&b| b == b'\n').map_or(rest.len(), |k| target + k + 1)
+            memchr::memchr(b'\n', &rest[target..]).map_or(rest.len(), |k| target + k + 1)
         };
         let (head, tail) = rest.split_at(cut);
         out.push(head);
@@ -200,7 +200,7 @@ fn count(chunk: &[u8]) -> Counts {
             (Statement::Other, _) => {}
         }
     }
-    // `split` yields one piece after a final newline: not a line of the file.
+    // `lines` yields one piece after a final newline: not a line of the file.
     if chunk.ends_with(b"\n") {
         c.lines -= 1;
     }

@@ -252,6 +252,15 @@ impl Extent {
     }
 }
 
+/// The bin (of [`BINS`]) of a centre's coordinate `c` along the binned axis, whose centres start
+/// at `min` and span `BINS / scale`. Cast to `i32` and clamped: for every `f32` (NaN, infinities,
+/// negatives, past 2³¹) the bin a saturating cast to `usize` and `min(BINS - 1)` give, in fewer
+/// instructions.
+#[inline]
+fn bin(c: f32, min: f32, scale: f32) -> usize {
+    (((c - min) * scale) as i32).clamp(0, BINS as i32 - 1) as usize
+}
+
 /// How the items of a range (whose extent is `extent`) split: `None` for a leaf, or
 /// `Some((mid, left, right))` after partitioning `items` in place, with each side's extent
 /// (binned SAH along the widest axis of the centres; one pass to bin, one to partition;
@@ -269,15 +278,13 @@ fn plan(items: &mut [Item], extent: Extent, depth: usize, step: f32) -> Option<(
 
     // Bin centres along the widest axis and sweep for the cheapest SAH split.
     let scale = BINS as f32 / size[axis];
-    // (Cast to `i32` and clamped: the same bin as a cast to `usize`, which saturates likewise,
-    // for fewer instructions.)
-    let bin_of = |i: &Item| (((i.centre_along(axis) - cb.min[axis]) * scale) as i32).clamp(0, BINS as i32 - 1) as usize;
+    let bin_of = |i: &Item| bin(i.centre_along(axis), cb.min[axis], scale);
     let full = if n <= SMALL { bins_sorted(items, bin_of) } else { bins_table(items, bin_of) };
     // The sweep goes over the bins that hold items: a split after an empty bin divides the items
     // as the split after the last full bin before it does, at the same cost, and the first of
     // equal costs is kept, so skipping them changes nothing (a small range, most of whose bins
     // are empty, is swept at the cost of its items, not of all the bins).
-    // right[j]: the items of the full bins from the j-th on (the last first).
+    // right[m]: the items of the full bins from the (len − 1 − m)-th on (pushed from the last).
     let mut right: arrayvec::ArrayVec<(Extent, usize), BINS> = arrayvec::ArrayVec::new();
     let mut acc = (Extent::EMPTY, 0);
     for j in (1..full.len()).rev() {
@@ -353,9 +360,10 @@ fn bins_table(items: &[Item], bin_of: impl Fn(&Item) -> usize + Sync) -> Full {
     (0..BINS).filter(|&k| bins[k].1 > 0).map(|k| (k, bins[k])).collect()
 }
 
-/// [`Full`] for a range of at most [`SMALL`] items (most are: a million triangles plan about
-/// 900,000 such ranges), without a table of every bin: each item's bin, sorted.
+/// [`Full`] for a range of at most [`SMALL`] items (most are: of the million ranges a million
+/// triangles plan, 900,000), without a table of every bin: each item's bin, sorted.
 fn bins_sorted(items: &[Item], bin_of: impl Fn(&Item) -> usize) -> Full {
+    debug_assert!(items.len() <= SMALL, "a range of {} items is not small", items.len());
     let mut of: arrayvec::ArrayVec<(usize, usize), SMALL> =
         items.iter().enumerate().map(|(k, i)| (bin_of(i), k)).collect();
     // (Unstable, as each pair differs: items stay in order within a bin.)
@@ -484,9 +492,9 @@ fn build(
     }
     let mut node = Node4::EMPTY;
     let me = out.push(Node4::EMPTY);
-    // This node is its region's first when the range is large: a large range is the root's, or a
-    // child's of another large range, which has a region of its own.
-    // Whether this node is its region's first (the region's subtree is then this node's).
+    // Whether this node is its region's first (the region's subtree is then this node's): a large
+    // range's node always is (it is the root's, or a child's of another large range, which has a
+    // region of its own).
     let first = me as usize == out.base;
     let free = if n >= PARALLEL { out.rest() } else { None };
     if let Some(mut free) = free {
@@ -722,9 +730,37 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_bin_is_the_one_a_saturating_cast_gives_for_any_float() {
+        let special = [
+            f32::NAN,
+            -f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            0.0,
+            -0.0,
+            -0.5,
+            -1e30,
+            0.999,
+            11.99,
+            12.0,
+            12.5,
+            2_147_483_648.0,
+            1e30,
+            f32::MAX,
+            f32::MIN_POSITIVE,
+        ];
+        // And a stride through every bit pattern.
+        let strided = (0..=u32::MAX).step_by(65_521).map(f32::from_bits);
+        for x in special.into_iter().chain(strided) {
+            assert_eq!(bin(x, 0.0, 1.0), (x as usize).min(BINS - 1), "{x} ({:#x})", x.to_bits());
+        }
+    }
+
+    #[test]
     fn a_small_range_is_binned_by_sorting_as_by_the_table_of_bins() {
-        // Boxes on a coarse grid (equal centres, ties, signed zeros), every size up to SMALL,
-        // binned along each axis as a range of their extent would be.
+        // Boxes on a coarse grid (equal centres, ties, -0 corners and centres), some empty or
+        // infinite (NaN centres), every size up to SMALL, binned along each axis as a range of
+        // their extent would be.
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
         let mut next = move |below: usize| {
             state ^= state << 13;
@@ -744,17 +780,26 @@ mod tests {
             let n = 1 + round % SMALL;
             let items: Vec<Item> = (0..n)
                 .map(|k| {
-                    let a = Vec3::from_array([(); 3].map(|_| [-0.0, 0.0, 0.5, -1.5, 2.0, 3.25][next(6)]));
-                    let b = a + Vec3::from_array([(); 3].map(|_| next(3) as f32 * 0.25));
-                    Item { bounds: Aabb { min: a, max: b }, index: k as u32 }
+                    let bounds = match next(12) {
+                        0 => Aabb::EMPTY,
+                        1 => Aabb { min: Vec3::NEG_INFINITY, max: Vec3::INFINITY },
+                        _ => {
+                            let a = [(); 3].map(|_| [-0.0, 0.0, 0.5, -1.5, 2.0, 3.25][next(6)]);
+                            // (No offset keeps a corner's -0: -0 + 0 would be +0.)
+                            let b = a.map(|x| match next(3) {
+                                0 => x,
+                                d => x + d as f32 * 0.25,
+                            });
+                            Aabb { min: Vec3::from_array(a), max: Vec3::from_array(b) }
+                        }
+                    };
+                    Item { bounds, index: k as u32 }
                 })
                 .collect();
             let cb = Extent::of(&items).centres;
             for axis in 0..3 {
                 let scale = BINS as f32 / (cb.max[axis] - cb.min[axis]);
-                let bin_of = |i: &Item| {
-                    (((i.centre_along(axis) - cb.min[axis]) * scale) as i32).clamp(0, BINS as i32 - 1) as usize
-                };
+                let bin_of = |i: &Item| bin(i.centre_along(axis), cb.min[axis], scale);
                 assert_eq!(bits(&bins_sorted(&items, bin_of)), bits(&bins_table(&items, bin_of)), "round {round}");
                 let as_before = |i: &Item| (((i.centre()[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
                 assert!(items.iter().all(|i| bin_of(i) == as_before(i)), "round {round}: the bin of a centre");
