@@ -98,40 +98,43 @@ fn statement(line: &[u8]) -> (Statement, &[u8]) {
     (s, &line[end..])
 }
 
-/// The line without a trailing comment.
-fn uncommented(line: &[u8]) -> &[u8] {
-    match memchr::memchr(b'#', line) {
-        Some(k) => &line[..k],
-        None => line,
-    }
-}
-
 /// The pieces of a chunk between newlines, as `chunk.split(|&b| b == b'\n')` gives them (an
-/// empty piece after a final newline), each newline found by SIMD search.
+/// empty piece after a final newline), each without its comment (from a `#` on): each newline
+/// found by SIMD search, and the `#`s by one search over the chunk and one after each comment
+/// (a line is never searched for a `#` of its own).
 struct Lines<'a> {
-    rest: Option<&'a [u8]>,
+    chunk: &'a [u8],
+    /// Where the next line starts; past the end once the last is given.
+    at: usize,
+    /// Where the first `#` at or after `at` is (the chunk's length if there is none).
+    hash: usize,
 }
 
-/// The lines of `chunk` (see [`Lines`]).
+/// The lines of `chunk`, comments cut off (see [`Lines`]).
 fn lines(chunk: &[u8]) -> Lines<'_> {
-    Lines { rest: Some(chunk) }
+    Lines { chunk, at: 0, hash: memchr::memchr(b'#', chunk).unwrap_or(chunk.len()) }
 }
 
 impl<'a> Iterator for Lines<'a> {
     type Item = &'a [u8];
 
+    #[inline]
     fn next(&mut self) -> Option<&'a [u8]> {
-        let rest = self.rest?;
-        match memchr::memchr(b'\n', rest) {
-            Some(k) => {
-                self.rest = Some(&rest[k + 1..]);
-                Some(&rest[..k])
-            }
-            None => {
-                self.rest = None;
-                Some(rest)
-            }
+        let start = self.at;
+        let rest = self.chunk.get(start..)?;
+        let end = match memchr::memchr(b'\n', rest) {
+            Some(k) => start + k,
+            None => self.chunk.len(),
+        };
+        self.at = end + 1;
+        if self.hash >= end {
+            return Some(&rest[..end - start]);
         }
+        // This line's comment: the line stops there, and the next `#` is looked for after it.
+        let cut = self.hash;
+        self.hash =
+            self.chunk.get(self.at..).and_then(|r| memchr::memchr(b'#', r)).map_or(self.chunk.len(), |k| self.at + k);
+        Some(&rest[..cut - start])
     }
 }
 
@@ -159,14 +162,76 @@ impl Counts {
     }
 }
 
-/// The words of a line after its keyword: a face's corners.
-fn words(rest: &[u8]) -> impl Iterator<Item = &[u8]> {
-    rest.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty())
+/// The words of a line after its keyword (a face's corners, a vertex's numbers): the runs of
+/// bytes between ASCII whitespace, as `split(u8::is_ascii_whitespace)` gives them with the empty
+/// pieces left out.
+fn words(rest: &[u8]) -> Words<'_> {
+    Words { rest }
+}
+
+/// The iterator of [`words`].
+struct Words<'a> {
+    rest: &'a [u8],
+}
+
+impl<'a> Iterator for Words<'a> {
+    type Item = &'a [u8];
+
+    #[inline]
+    fn next(&mut self) -> Option<&'a [u8]> {
+        let start = self.rest.iter().position(|b| !b.is_ascii_whitespace())?;
+        let word = &self.rest[start..];
+        let end = word.iter().position(|b| b.is_ascii_whitespace()).unwrap_or(word.len());
+        self.rest = &word[end..];
+        Some(&word[..end])
+    }
+}
+
+/// The powers of ten an `f32` holds exactly (5¹⁰ < 2²⁴).
+const EXACT_TENS: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
+
+/// A plain decimal (`-` or no sign, digits, at most one `.`) read at once where that is exact:
+/// at most 2²⁴ units of 10⁻ᵏ with k ≤ 10, so that the units and the power of ten are both exact
+/// `f32`s and their one division rounds the number once, to the nearest, as `str::parse::<f32>`
+/// does (the fast path of Clinger's algorithm, which the parse itself takes for such numbers).
+/// `None` for anything else (a `+`, an exponent, `inf`, more digits, no digit at all), which
+/// the full parse reads.
+#[inline]
+fn short_decimal(word: &[u8]) -> Option<f32> {
+    let (negative, digits) = match word.split_first()? {
+        (b'-', rest) => (true, rest),
+        _ => (false, word),
+    };
+    let (mut units, mut any, mut point, mut decimals) = (0u32, false, false, 0usize);
+    for &b in digits {
+        match b {
+            b'0'..=b'9' => {
+                units = units.checked_mul(10)?.checked_add(u32::from(b - b'0'))?;
+                any = true;
+                decimals += point as usize;
+            }
+            b'.' if !point => point = true,
+            _ => return None,
+        }
+    }
+    if !any || units > 1 << 24 || decimals >= EXACT_TENS.len() {
+        return None;
+    }
+    let value = units as f32 / EXACT_TENS[decimals];
+    Some(if negative { -value } else { value })
 }
 
 /// The triangles a face whose words after `f` are `rest` fans into.
 fn face_triangles(rest: &[u8]) -> usize {
-    words(rest).count().saturating_sub(2)
+    // The words counted by where they start (`words(rest).count()`, without cutting them out).
+    let mut gap = true;
+    let mut starts = 0;
+    for b in rest {
+        let space = b.is_ascii_whitespace();
+        starts += (gap && !space) as usize;
+        gap = space;
+    }
+    starts.saturating_sub(2)
 }
 
 /// Splits `bytes` into about `parts` runs of whole lines.
@@ -192,7 +257,7 @@ fn count(chunk: &[u8]) -> Counts {
     let mut c = Counts::default();
     for line in lines(chunk) {
         c.lines += 1;
-        match statement(uncommented(line)) {
+        match statement(line) {
             (Statement::Position, _) => c.positions += 1,
             (Statement::Normal, _) => c.normals += 1,
             (Statement::Uv, _) => c.uvs += 1,
@@ -213,7 +278,9 @@ type Kind = (bool, bool);
 /// What one chunk read.
 #[derive(Default)]
 struct Part {
-    obj: Obj,
+    /// Its triangles' normal and texture-coordinate indices, where its faces give them.
+    normal_triangles: Vec<[u32; 3]>,
+    uv_triangles: Vec<[u32; 3]>,
     /// The first face's corner kind and line.
     first: Option<(Kind, usize)>,
     /// The first line whose corners differ from the chunk's first face's (or among themselves).
@@ -228,9 +295,14 @@ fn numbers<const N: usize>(rest: &[u8], min: usize, what: &str) -> Result<([f32;
     let mut out = [0.0; N];
     let mut n = 0;
     let mut given = 0;
-    for token in rest.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty()) {
+    for token in words(rest) {
         given += 1;
         if n == N {
+            continue;
+        }
+        if let Some(value) = short_decimal(token) {
+            out[n] = value;
+            n += 1;
             continue;
         }
         let text = std::str::from_utf8(token).unwrap_or("");
@@ -270,8 +342,31 @@ fn integer(field: &[u8]) -> Option<i64> {
     Some(if negative { -value } else { value })
 }
 
+/// A face corner's fields between `/`s (`v`, `v/vt`, `v//vn`, `v/vt/vn`), the missing ones
+/// empty, as `split(b'/')` gives them; `None` for more than three.
+#[inline]
+fn corner_fields(word: &[u8]) -> Option<[&[u8]; 3]> {
+    let mut fields = [&word[..0]; 3];
+    let mut rest = word;
+    for (k, field) in fields.iter_mut().enumerate() {
+        match rest.iter().position(|&b| b == b'/') {
+            Some(at) if k < 2 => {
+                *field = &rest[..at];
+                rest = &rest[at + 1..];
+            }
+            Some(_) => return None,
+            None => {
+                *field = rest;
+                return Some(fields);
+            }
+        }
+    }
+    Some(fields)
+}
+
 /// One index of a corner: from 1, or negative counting back from the last element before the
 /// line (`before`), checked against the `total` in the file. `None` for an empty field.
+#[inline]
 fn index(field: &[u8], before: usize, total: usize, what: &str) -> Result<Option<u32>, String> {
     if field.is_empty() {
         return Ok(None);
@@ -304,7 +399,7 @@ fn over_budget(pieces: &[&[u8]], counts: &[Counts], starts: &[Counts], budget: B
     let mut column = None;
     for (j, raw) in lines(pieces[k]).enumerate() {
         line = starts[k].lines + j + 1;
-        let (what, rest) = statement(uncommented(raw));
+        let (what, rest) = statement(raw);
         let triangles = if what == Statement::Face { face_triangles(rest) } else { 0 };
         if before + triangles > left {
             // Its corners after the keyword: corner `left - before + 2` (from 0) closes the
@@ -333,20 +428,50 @@ fn over_budget(pieces: &[&[u8]], counts: &[Counts], starts: &[Counts], budget: B
     }
 }
 
+/// Where one chunk's elements go: its stretch of each of the file's arrays, as long as it
+/// counted (so each is filled exactly by a chunk read without error).
+struct Slots<'a> {
+    positions: &'a mut [Vec3],
+    normals: &'a mut [Vec3],
+    uvs: &'a mut [Vec2],
+    triangles: &'a mut [[u32; 3]],
+}
+
+impl<'a> Slots<'a> {
+    /// The file's arrays cut into each chunk's stretch, in order, by the chunks' `counts`.
+    fn cut(obj: &'a mut Obj, counts: &[Counts]) -> Vec<Slots<'a>> {
+        let (mut positions, mut normals, mut uvs, mut triangles) =
+            (&mut obj.positions[..], &mut obj.normals[..], &mut obj.uvs[..], &mut obj.triangles[..]);
+        counts
+            .iter()
+            .map(|c| Slots {
+                positions: take(&mut positions, c.positions),
+                normals: take(&mut normals, c.normals),
+                uvs: take(&mut uvs, c.uvs),
+                triangles: take(&mut triangles, c.triangles),
+            })
+            .collect()
+    }
+}
+
+/// The first `n` of `rest`, which keeps what is after them.
+fn take<'a, T>(rest: &mut &'a mut [T], n: usize) -> &'a mut [T] {
+    let (head, tail) = std::mem::take(rest).split_at_mut(n);
+    *rest = tail;
+    head
+}
+
 /// Reads one chunk whose first line is line `at.lines + 1` of the file and whose elements are
-/// numbered from `at`; `mine` is its own counts, `total` the whole file's.
-fn read(chunk: &[u8], at: Counts, mine: Counts, total: Counts) -> Result<Part, ObjError> {
+/// numbered from `at` into its `slots`; `mine` is its own counts, `total` the whole file's.
+fn read(chunk: &[u8], at: Counts, mine: Counts, total: Counts, slots: Slots<'_>) -> Result<Part, ObjError> {
     let mut part = Part::default();
-    let o = &mut part.obj;
-    o.positions.reserve_exact(mine.positions);
-    o.normals.reserve_exact(mine.normals);
-    o.uvs.reserve_exact(mine.uvs);
-    o.triangles.reserve_exact(mine.triangles);
+    // How many of each it has read (the next slot of each).
+    let (mut read_positions, mut read_normals, mut read_uvs, mut read_triangles) = (0, 0, 0, 0);
     let (mut positions, mut normals, mut uvs) = (at.positions, at.normals, at.uvs);
     for (k, raw) in lines(chunk).enumerate() {
         let line = at.lines + k + 1;
         let fail = |message: String| ObjError::at(line, message);
-        let (what, rest) = statement(uncommented(raw));
+        let (what, rest) = statement(raw);
         match what {
             Statement::Position => {
                 let ([x, y, z, w], n) = numbers(rest, 3, "v").map_err(fail)?;
@@ -365,7 +490,8 @@ fn read(chunk: &[u8], at: Counts, mine: Counts, total: Counts) -> Result<Part, O
                 if !p.is_finite() {
                     return Err(fail("`v` has a coordinate that is not a finite number".into()));
                 }
-                o.positions.push(p);
+                slots.positions[read_positions] = p;
+                read_positions += 1;
                 positions += 1;
             }
             Statement::Normal => {
@@ -373,14 +499,16 @@ fn read(chunk: &[u8], at: Counts, mine: Counts, total: Counts) -> Result<Part, O
                 let n = Vec3::new(x, y, z);
                 // Exporters write `nan` normals for faces with no area: such a normal counts for
                 // nothing in the interpolation (the face's own normal takes over).
-                o.normals.push(if n.is_finite() { n } else { Vec3::ZERO });
+                slots.normals[read_normals] = if n.is_finite() { n } else { Vec3::ZERO };
+                read_normals += 1;
                 part.replaced += !n.is_finite() as usize;
                 normals += 1;
             }
             Statement::Uv => {
                 let ([u, v], _) = numbers(rest, 1, "vt").map_err(fail)?;
                 let t = Vec2::new(u, v);
-                o.uvs.push(if t.is_finite() { t } else { Vec2::ZERO });
+                slots.uvs[read_uvs] = if t.is_finite() { t } else { Vec2::ZERO };
+                read_uvs += 1;
                 part.replaced += !t.is_finite() as usize;
                 uvs += 1;
             }
@@ -398,16 +526,14 @@ fn read(chunk: &[u8], at: Counts, mine: Counts, total: Counts) -> Result<Part, O
                             "line continuations (`\\` at the end of a line) are not supported: join the lines";
                         return Err(fail(message.into()));
                     }
-                    let mut fields = token.split(|&b| b == b'/');
-                    let [pf, tf, nf] = [(); 3].map(|_| fields.next().unwrap_or(b""));
-                    if pf.is_empty() {
-                        return Err(fail(format!("a face corner needs a vertex index, found `{}`", corner())));
-                    }
-                    if fields.next().is_some() {
+                    let Some([pf, tf, nf]) = corner_fields(token) else {
                         return Err(fail(format!(
                             "a face corner has at most three indices (`v/vt/vn`), found `{}`",
                             corner()
                         )));
+                    };
+                    if pf.is_empty() {
+                        return Err(fail(format!("a face corner needs a vertex index, found `{}`", corner())));
                     }
                     let p = index(pf, positions, total.positions, "vertex").map_err(fail)?.unwrap_or(0);
                     let t = index(tf, uvs, total.uvs, "texture coordinate").map_err(fail)?;
@@ -420,18 +546,19 @@ fn read(chunk: &[u8], at: Counts, mine: Counts, total: Counts) -> Result<Part, O
                     differs |= kind != part.first.map_or(kind0, |(k, _)| k);
                     corners += 1;
                     if corners >= 3 {
-                        o.triangles.push([c0[0], previous[0], p]);
+                        slots.triangles[read_triangles] = [c0[0], previous[0], p];
+                        read_triangles += 1;
                         if kind0.0 {
-                            if o.uv_triangles.capacity() == 0 {
-                                o.uv_triangles.reserve_exact(mine.triangles);
+                            if part.uv_triangles.capacity() == 0 {
+                                part.uv_triangles.reserve_exact(mine.triangles);
                             }
-                            o.uv_triangles.push([c0[1], previous[1], corner[1]]);
+                            part.uv_triangles.push([c0[1], previous[1], corner[1]]);
                         }
                         if kind0.1 {
-                            if o.normal_triangles.capacity() == 0 {
-                                o.normal_triangles.reserve_exact(mine.triangles);
+                            if part.normal_triangles.capacity() == 0 {
+                                part.normal_triangles.reserve_exact(mine.triangles);
                             }
-                            o.normal_triangles.push([c0[2], previous[2], corner[2]]);
+                            part.normal_triangles.push([c0[2], previous[2], corner[2]]);
                         }
                     }
                     previous = corner;
@@ -449,6 +576,11 @@ fn read(chunk: &[u8], at: Counts, mine: Counts, total: Counts) -> Result<Part, O
             Statement::Other => {}
         }
     }
+    debug_assert_eq!(
+        [read_positions, read_normals, read_uvs, read_triangles],
+        [mine.positions, mine.normals, mine.uvs, mine.triangles],
+        "a chunk reads what it counted"
+    );
     Ok(part)
 }
 
@@ -483,52 +615,47 @@ fn parse_in(bytes: &[u8], parts: usize, budget: Budget) -> Result<Obj, ObjError>
     if total.triangles > budget.left() {
         return Err(over_budget(&pieces, &counts, &starts, budget));
     }
+    if total.triangles >= u32::MAX as usize {
+        return Err(ObjError::at(total.lines, "more than 4 billion triangles: too many to index".into()));
+    }
+    // The file's arrays at their counted sizes, each chunk reading into its own stretch (no
+    // copy after; zeroed by the system as their pages are first written, on the thread that
+    // writes them).
+    let mut obj = Obj {
+        positions: bytemuck::zeroed_vec(total.positions),
+        normals: bytemuck::zeroed_vec(total.normals),
+        uvs: bytemuck::zeroed_vec(total.uvs),
+        triangles: bytemuck::zeroed_vec(total.triangles),
+        ..Obj::default()
+    };
+    let slots = Slots::cut(&mut obj, &counts);
     let read: Vec<Result<Part, ObjError>> = pieces
-        .par_iter()
-        .zip(starts.par_iter().zip(counts.par_iter()))
-        .map(|(chunk, (&at, &mine))| read(chunk, at, mine, total))
+        .into_par_iter()
+        .zip(starts.into_par_iter().zip(counts.into_par_iter()))
+        .zip(slots)
+        .map(|((chunk, (at, mine)), slots)| read(chunk, at, mine, total, slots))
         .collect();
     // Each chunk stops at its own first bad line, so the first failing chunk has the file's.
     let parts = read.into_iter().collect::<Result<Vec<Part>, ObjError>>()?;
-    let triangles: usize = parts.iter().map(|p| p.obj.triangles.len()).sum();
-    if triangles >= u32::MAX as usize {
-        return Err(ObjError::at(total.lines, "more than 4 billion triangles: too many to index".into()));
-    }
     // The first face's kind is the file's; a chunk whose faces begin otherwise is mixed there.
     let kind = parts.iter().find_map(|p| p.first.map(|(k, _)| k));
-    let mixed = parts.iter().find_map(|p| match p.first {
+    obj.mixed = parts.iter().find_map(|p| match p.first {
         Some((k, line)) if Some(k) != kind => Some(line),
         _ => p.mixed,
     });
-    let sum = |f: fn(&Obj) -> usize| parts.iter().map(|p| f(&p.obj)).sum::<usize>();
-    let replaced = parts.iter().map(|p| p.replaced).sum();
-    let mut obj = Obj {
-        positions: Vec::with_capacity(total.positions),
-        normals: Vec::with_capacity(total.normals),
-        uvs: Vec::with_capacity(total.uvs),
-        triangles: Vec::with_capacity(sum(|o| o.triangles.len())),
-        normal_triangles: Vec::with_capacity(sum(|o| o.normal_triangles.len())),
-        uv_triangles: Vec::with_capacity(sum(|o| o.uv_triangles.len())),
-        mixed,
-        replaced,
+    obj.replaced = parts.iter().map(|p| p.replaced).sum();
+    let mixed = obj.mixed;
+    // Normal and texture-coordinate indices are kept only if every triangle has them.
+    let join = |of: fn(&Part) -> &[[u32; 3]]| {
+        let complete = mixed.is_none() && parts.iter().map(|p| of(p).len()).sum::<usize>() == total.triangles;
+        let mut all = Vec::with_capacity(if complete { total.triangles } else { 0 });
+        if complete {
+            parts.iter().for_each(|p| all.extend_from_slice(of(p)));
+        }
+        all
     };
-    // Each chunk's arrays are freed as soon as they are copied: the peak holds the result and
-    // one chunk.
-    for p in parts {
-        let Obj { positions, normals, uvs, triangles, normal_triangles, uv_triangles, .. } = p.obj;
-        obj.positions.extend(positions);
-        obj.normals.extend(normals);
-        obj.uvs.extend(uvs);
-        obj.triangles.extend(triangles);
-        obj.normal_triangles.extend(normal_triangles);
-        obj.uv_triangles.extend(uv_triangles);
-    }
-    if mixed.is_some() || obj.normal_triangles.len() != obj.triangles.len() {
-        obj.normal_triangles = Vec::new();
-    }
-    if mixed.is_some() || obj.uv_triangles.len() != obj.triangles.len() {
-        obj.uv_triangles = Vec::new();
-    }
+    obj.normal_triangles = join(|p| &p.normal_triangles);
+    obj.uv_triangles = join(|p| &p.uv_triangles);
     Ok(obj)
 }
 
@@ -539,11 +666,31 @@ mod tests {
     #[test]
     fn lines_are_the_pieces_between_newlines_as_a_split_gives_them() {
         let long = "v 1 2 3 # a comment longer than a SIMD block of bytes\n".repeat(5);
-        for text in
-            ["", "\n", "\n\n", "f 1 2 3", "f 1 2 3\n", "v 1 2 3\r\nf 1 2 3\r\n", "\nv 0 0 0\n\nx", long.as_str()]
-        {
+        let long = long.as_str();
+        for text in [
+            "",
+            "\n",
+            "\n\n",
+            "f 1 2 3",
+            "f 1 2 3\n",
+            "v 1 2 3\r\nf 1 2 3\r\n",
+            "\nv 0 0 0\n\nx",
+            long,
+            // Comments: alone, at the start and the end, two on a line, one on the last line
+            // with no newline after it, a `#` as the last byte, lines of nothing but `#`.
+            "#",
+            "#\n#\n",
+            "# top\nv 0 0 0\nf 1 1 1 # x # y\nv 1 1 1\n#",
+            "v 1 2 3\n\n# a\n\nv 4 5 6 #tail",
+            "##\n#\n\n#v\nv 0 0 0#",
+        ] {
             let bytes = text.as_bytes();
-            assert_eq!(lines(bytes).collect::<Vec<_>>(), bytes.split(|&b| b == b'\n').collect::<Vec<_>>(), "{text:?}");
+            // Each without its comment, as it was cut line by line before.
+            fn uncommented(line: &[u8]) -> &[u8] {
+                line.iter().position(|&b| b == b'#').map_or(line, |k| &line[..k])
+            }
+            let split: Vec<&[u8]> = bytes.split(|&b| b == b'\n').map(uncommented).collect();
+            assert_eq!(lines(bytes).collect::<Vec<_>>(), split, "{text:?}");
         }
     }
 
@@ -639,6 +786,114 @@ mod tests {
         // budget is checked before the numbers are read (as the 4-billion bound).
         let e = parse(b"v 0 0 0\nv 1 0 x\nv 0 1 0\nf 1 2 3 1 2\n", Budget { limit: 2, earlier: 0 }).unwrap_err();
         assert_eq!((e.line, e.column), (4, Some(11)));
+    }
+
+    /// Every string of `alphabet` up to `longest` bytes.
+    fn strings(alphabet: &[u8], longest: usize) -> impl Iterator<Item = Vec<u8>> + '_ {
+        (0..=longest).flat_map(move |len| {
+            (0..alphabet.len().pow(len as u32)).map(move |mut k| {
+                (0..len)
+                    .map(|_| {
+                        let b = alphabet[k % alphabet.len()];
+                        k /= alphabet.len();
+                        b
+                    })
+                    .collect()
+            })
+        })
+    }
+
+    #[test]
+    fn words_fields_and_triangle_counts_are_what_splitting_gives() {
+        // Every string of up to seven bytes of whitespace (each kind), digits, slashes and a
+        // letter: the words as a split on whitespace without its empty pieces, the triangles as
+        // that many words less two, and each word's corner fields as a split on `/`.
+        let mut cornered = 0;
+        for text in strings(b" \t\r\x0c1/f", 7) {
+            let split: Vec<&[u8]> = text.split(u8::is_ascii_whitespace).filter(|w| !w.is_empty()).collect();
+            assert_eq!(words(&text).collect::<Vec<_>>(), split, "{text:?}");
+            assert_eq!(face_triangles(&text), split.len().saturating_sub(2), "{text:?}");
+            for word in split {
+                let fields: Vec<&[u8]> = word.split(|&b| b == b'/').collect();
+                let expected = (fields.len() <= 3).then(|| [0, 1, 2].map(|k| fields.get(k).copied().unwrap_or(b"")));
+                assert_eq!(corner_fields(word), expected, "{word:?}");
+                cornered += expected.is_some() as usize;
+            }
+        }
+        assert!(cornered > 100_000, "{cornered} words had corner fields");
+    }
+
+    #[test]
+    fn short_decimals_are_read_to_the_bit_as_rust_reads_them() {
+        let std = |text: &str| text.parse::<f32>().ok().map(f32::to_bits);
+        // Every number of decimals the shortcut takes and one past, each with units through the
+        // whole range it takes (a stride, and its ends and one past), with and without a sign.
+        let units = (0..=(1u32 << 24) + 1).step_by(9_973).chain([1, 9, 10, (1 << 24) - 1, 1 << 24, (1 << 24) + 1]);
+        let mut read = 0;
+        for u in units {
+            for decimals in 0..=11usize {
+                let digits = format!("{u:0width$}", width = decimals + 1);
+                let (whole, fraction) = digits.split_at(digits.len() - decimals);
+                for sign in ["", "-"] {
+                    let text =
+                        if decimals == 0 { format!("{sign}{whole}") } else { format!("{sign}{whole}.{fraction}") };
+                    let got = short_decimal(text.as_bytes());
+                    if u <= 1 << 24 && decimals <= 10 {
+                        assert_eq!(got.map(f32::to_bits), std(&text), "{text}");
+                        read += 1;
+                    } else {
+                        assert_eq!(got, None, "{text} is left to the full parse");
+                    }
+                }
+            }
+        }
+        assert!(read > 35_000, "{read}");
+        // Other forms: read as Rust reads them, or left to the full parse (never another value).
+        for text in [
+            ".5",
+            "5.",
+            "-.5",
+            "-0",
+            "-0.0",
+            "0.0",
+            "007.250",
+            "-10.00000",
+            "0.75313",
+            "16777216",
+            "16777217",
+            "+1",
+            "1e3",
+            "1E-2",
+            "inf",
+            "-inf",
+            "nan",
+            "NaN",
+            "1.2.3",
+            ".",
+            "-",
+            "",
+            "--1",
+            "-+1",
+            "1-",
+            "0x10",
+            " 1",
+            "0.00000000001",
+            "99999999999999999999",
+        ] {
+            if let Some(v) = short_decimal(text.as_bytes()) {
+                assert_eq!(Some(v.to_bits()), std(text), "{text}");
+            }
+        }
+        for text in ["1.2.3", ".", "-", "", "--1", "+1", "1e3", "inf", "nan", "1-"] {
+            assert_eq!(short_decimal(text.as_bytes()), None, "{text}");
+        }
+        // And every string of digits, points and signs up to six bytes.
+        for text in strings(b"-.0159", 6) {
+            let text = String::from_utf8(text).expect("ASCII");
+            if let Some(v) = short_decimal(text.as_bytes()) {
+                assert_eq!(Some(v.to_bits()), std(&text), "{text}");
+            }
+        }
     }
 
     #[test]
